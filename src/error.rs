@@ -1,0 +1,98 @@
+//! The one error type of the library.
+//!
+//! Every variant carries what a user needs to fix the problem: the file, the place in it
+//! (line, byte offset, element, key) and the bad value. `main` wraps it in `anyhow` and prints
+//! the chain once. A failed fit of one edge or corner is *not* an `Error` of the run: the
+//! pipeline counts and reports it; the geometry functions return these variants so the caller
+//! can decide.
+//!
+//! Variants are grouped by the part of the library that raises them; add new ones to the group
+//! they belong to.
+
+use std::path::PathBuf;
+
+/// Result with the library's error.
+pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    // ---- files and formats (io/) ----
+    /// The OS refused an operation on a file (missing, unreadable, unwritable).
+    #[error("{}: {action}: {source}", path.display())]
+    Io {
+        path: PathBuf,
+        /// What we were doing, e.g. "cannot open", "cannot create temporary file in".
+        action: &'static str,
+        #[source]
+        source: std::io::Error,
+    },
+    /// The file's extension names no format sharpedge reads or writes.
+    #[error("{}: unknown file type {ext:?}: {allowed}", path.display())]
+    UnknownFormat {
+        path: PathBuf,
+        ext: String,
+        /// The extensions that are accepted, for the message.
+        allowed: &'static str,
+    },
+    /// The file is not what its format says: bad header, truncated body, wrong types.
+    /// `place` says where: "line 7", "byte 1024", "vertex 12 of 100", "header".
+    #[error("{}: {place}: {what}", path.display())]
+    Malformed {
+        path: PathBuf,
+        place: String,
+        what: String,
+    },
+    /// The cloud cannot be processed: empty, one point, all points identical, NaN coordinates.
+    #[error("{}: {what}", path.display())]
+    BadCloud { path: PathBuf, what: String },
+
+    // ---- configuration (config.rs, cli.rs) ----
+    /// A bad key or value in a pipeline file. `line` is 1-based; 0 when unknown.
+    #[error("{}:{line}: {key}: {message}", path.display())]
+    Config {
+        path: PathBuf,
+        line: usize,
+        key: String,
+        message: String,
+    },
+    /// A bad command-line value that clap could not catch (e.g. a combination of options).
+    #[error("{option}: {message}")]
+    Usage { option: String, message: String },
+
+    // ---- geometry and fitting (fit/, pipeline stages) ----
+    /// Fewer points than a fit needs.
+    #[error("{what}: needs at least {needed} points, got {got}")]
+    TooFewPoints {
+        what: &'static str,
+        needed: usize,
+        got: usize,
+    },
+    /// The input has no unique answer: collinear points for a plane, parallel lines for a
+    /// corner, all points identical for a line, a NaN in the input.
+    #[error("{what}: degenerate input: {why}")]
+    Degenerate { what: &'static str, why: String },
+}
+
+impl Error {
+    /// Shorthand for [`Error::Io`].
+    pub fn io(path: impl Into<PathBuf>, action: &'static str, source: std::io::Error) -> Self {
+        Error::Io {
+            path: path.into(),
+            action,
+            source,
+        }
+    }
+
+    /// Shorthand for [`Error::Malformed`].
+    pub fn malformed(
+        path: impl Into<PathBuf>,
+        place: impl Into<String>,
+        what: impl Into<String>,
+    ) -> Self {
+        Error::Malformed {
+            path: path.into(),
+            place: place.into(),
+            what: what.into(),
+        }
+    }
+}

@@ -1,0 +1,1 @@
+//! Triangle meshes (OFF, PLY, OBJ) for the scan simulator.

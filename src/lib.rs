@@ -1,0 +1,17 @@
+//! sharpedge: sharp edges and corners of 3D scans with sub-point accuracy.
+//!
+//! The library holds every stage of the pipeline as a plain function over typed data, so tests
+//! and other programs can call each one; the `sharpedge` binary only parses the command line
+//! and calls in here. See DESIGN.md in the project's shared folder for the method and the
+//! output contract.
+
+pub mod cloud;
+pub mod error;
+pub mod experiment;
+pub mod fit;
+pub mod io;
+pub mod progress;
+pub mod synth;
+
+pub use cloud::{Attribute, Cloud, Column, Source};
+pub use error::{Error, Result};
