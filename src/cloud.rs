@@ -60,6 +60,7 @@ impl Column {
     }
 
     /// Value `i` widened to f64 (exact for every variant).
+    #[allow(clippy::useless_conversion)] // the F64 arm of the macro converts f64 to itself
     pub fn get_f64(&self, i: usize) -> f64 {
         each_column!(self, v => f64::from(v[i]))
     }
