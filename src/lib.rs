@@ -10,6 +10,7 @@ pub mod error;
 pub mod experiment;
 pub mod fit;
 pub mod io;
+pub mod neighbours;
 pub mod progress;
 pub mod synth;
 
