@@ -8,6 +8,7 @@
 pub mod cloud;
 pub mod error;
 pub mod experiment;
+pub mod features;
 pub mod fit;
 pub mod io;
 pub mod neighbours;
