@@ -16,6 +16,7 @@
 //!   points, so this stays ~5x above the face level even at σ = spacing (measured in the tests:
 //!   near-edge 10th percentile 0.14 against a face maximum of 0.03), and ~35x at σ = 0.15
 //!   spacing for a 150° dihedral edge.
+//!
 //! A point is a candidate when either score stands out: thresholds are fixed statements about
 //! noise statistics and angles (relative to the cloud's own median), not per-scan tuning.
 

@@ -280,7 +280,7 @@ impl KdTree {
             .nearest_n::<SquaredEuclidean<f32>>(k)
             .execute()
             .into_iter()
-            .map(|r| (r.item as u32, f64::from(r.distance).sqrt()))
+            .map(|r| (r.item, f64::from(r.distance).sqrt()))
             .collect()
     }
 }
