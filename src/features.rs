@@ -28,7 +28,7 @@ use crate::neighbours::Grid;
 use crate::progress::{BATCH, Progress};
 
 /// Settings of the features stage (validated by `config`).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct FeatureParams {
     /// Neighbourhood radius in model units; `None` = max(`min_radius` spacings,
     /// `noise_radius` sigmas).

@@ -6,6 +6,7 @@
 //! output contract.
 
 pub mod cloud;
+pub mod config;
 pub mod error;
 pub mod experiment;
 pub mod features;

@@ -2,3 +2,17 @@
 //! the rest of the library sees only `Cloud`.
 
 pub mod mesh;
+
+/// What to do with points whose coordinates are NaN or infinite.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum NonFinite {
+    Reject,
+    Drop,
+}
+
+/// PLY body encoding of written files.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PlyEncoding {
+    BinaryLittleEndian,
+    Ascii,
+}

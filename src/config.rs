@@ -1,0 +1,584 @@
+//! pipeline.toml in two steps: TOML → raw structs (`deny_unknown_fields`, every value
+//! optional and spanned) → `validate()` → typed `Settings` that the core uses. The core never
+//! sees TOML.
+//!
+//! Input: the text of a pipeline file and its path. Output: `Settings`, or an
+//! `Error::Config` naming the file, the line, the dotted key and what is allowed, e.g.
+//! `pipeline.toml:14: fit.swarm_size: must be ≥ 2, got 0`.
+//!
+//! Defaults live in one place, the `Default` impls of the typed settings (and of each
+//! stage's parameter struct); the committed pipeline.toml repeats them in comments.
+
+use std::ops::Range;
+use std::path::{Path, PathBuf};
+
+use serde::de::{self, Deserializer, Visitor};
+use serde::{Deserialize, Serialize};
+use toml::Spanned;
+
+use crate::error::{Error, Result};
+use crate::features::FeatureParams;
+use crate::io::{NonFinite, PlyEncoding};
+
+/// A length in model units, or `"auto"`: derived from the cloud's measured spacing and noise.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Length {
+    Auto,
+    Value(f64),
+}
+
+impl<'de> Deserialize<'de> for Length {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
+        struct V;
+        impl Visitor<'_> for V {
+            type Value = Length;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("a length in model units or \"auto\"")
+            }
+            fn visit_f64<E: de::Error>(self, v: f64) -> std::result::Result<Length, E> {
+                Ok(Length::Value(v))
+            }
+            fn visit_i64<E: de::Error>(self, v: i64) -> std::result::Result<Length, E> {
+                Ok(Length::Value(v as f64))
+            }
+            fn visit_u64<E: de::Error>(self, v: u64) -> std::result::Result<Length, E> {
+                Ok(Length::Value(v as f64))
+            }
+            fn visit_str<E: de::Error>(self, v: &str) -> std::result::Result<Length, E> {
+                if v == "auto" {
+                    Ok(Length::Auto)
+                } else {
+                    Err(E::invalid_value(de::Unexpected::Str(v), &self))
+                }
+            }
+        }
+        d.deserialize_any(V)
+    }
+}
+
+// ---- raw: what the file says, with spans for the messages ----
+
+type Opt<T> = Option<Spanned<T>>;
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawConfig {
+    seed: Opt<i64>,
+    threads: Opt<i64>,
+    #[serde(default)]
+    input: RawInput,
+    #[serde(default)]
+    output: RawOutput,
+    #[serde(default)]
+    features: RawFeatures,
+}
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawInput {
+    path: Opt<String>,
+    non_finite: Opt<String>,
+}
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawOutput {
+    dir: Opt<String>,
+    encoding: Opt<String>,
+    precision: Opt<String>,
+}
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawFeatures {
+    radius: Opt<Length>,
+    noise: Opt<Length>,
+    min_radius: Opt<f64>,
+    noise_radius: Opt<f64>,
+    plane_threshold: Opt<f64>,
+    split_threshold: Opt<f64>,
+    split_noise_factor: Opt<f64>,
+    outlier_share: Opt<f64>,
+}
+
+// ---- typed: what the core uses ----
+
+/// Coordinate type of the written clouds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Precision {
+    /// Double when the input stored more precision than float holds, or when float would
+    /// lose more than a thousandth of the spacing at the cloud's magnitude.
+    Auto,
+    Float,
+    Double,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct InputSettings {
+    /// The cloud to read; relative paths in the file are relative to the file's folder.
+    pub path: Option<PathBuf>,
+    #[serde(serialize_with = "ser_non_finite")]
+    pub non_finite: NonFinite,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct OutputSettings {
+    pub dir: PathBuf,
+    #[serde(serialize_with = "ser_encoding")]
+    pub encoding: PlyEncoding,
+    pub precision: Precision,
+}
+
+/// Everything a run needs, validated.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Settings {
+    pub seed: u64,
+    /// Worker threads; 0 = all cores.
+    pub threads: usize,
+    pub input: InputSettings,
+    pub output: OutputSettings,
+    pub features: FeatureParams,
+}
+
+impl Default for Settings {
+    fn default() -> Self {
+        Settings {
+            seed: 1,
+            threads: 0,
+            input: InputSettings {
+                path: None,
+                non_finite: NonFinite::Reject,
+            },
+            output: OutputSettings {
+                dir: PathBuf::from("out"),
+                encoding: PlyEncoding::BinaryLittleEndian,
+                precision: Precision::Auto,
+            },
+            features: FeatureParams::default(),
+        }
+    }
+}
+
+fn ser_non_finite<S: serde::Serializer>(
+    v: &NonFinite,
+    s: S,
+) -> std::result::Result<S::Ok, S::Error> {
+    s.serialize_str(match v {
+        NonFinite::Reject => "reject",
+        NonFinite::Drop => "drop",
+    })
+}
+
+fn ser_encoding<S: serde::Serializer>(
+    v: &PlyEncoding,
+    s: S,
+) -> std::result::Result<S::Ok, S::Error> {
+    s.serialize_str(match v {
+        PlyEncoding::BinaryLittleEndian => "binary",
+        PlyEncoding::Ascii => "ascii",
+    })
+}
+
+/// Reads and validates a pipeline file.
+pub fn load(path: &Path) -> Result<Settings> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| Error::io(path, "cannot read pipeline file", e))?;
+    parse(&text, path)
+}
+
+/// Parses and validates the text of a pipeline file; `path` is used for messages and to
+/// resolve relative paths.
+pub fn parse(text: &str, path: &Path) -> Result<Settings> {
+    let raw = parse_raw(text, path)?;
+    Checker { text, path }.validate(raw)
+}
+
+fn parse_raw(text: &str, path: &Path) -> Result<RawConfig> {
+    let de =
+        toml::Deserializer::parse(text).map_err(|e| toml_error(text, path, &e, String::new()))?;
+    serde_path_to_error::deserialize(de).map_err(|e| {
+        // Spanned<T> shows up as a private map key in the path; users know the key only.
+        let key = e
+            .path()
+            .to_string()
+            .replace(".$__serde_spanned_private_value", "");
+        toml_error(
+            text,
+            path,
+            e.inner(),
+            if key == "." { String::new() } else { key },
+        )
+    })
+}
+
+fn toml_error(text: &str, path: &Path, e: &toml::de::Error, key: String) -> Error {
+    let line = e.span().map(|s| line_of(text, s.start)).unwrap_or(0);
+    let mut message = e.message().trim().to_string();
+    if message.starts_with("unknown field") {
+        message.push_str("; see the commented pipeline.toml for every key");
+    }
+    Error::Config {
+        path: path.to_path_buf(),
+        line,
+        key: if key.is_empty() { "(file)".into() } else { key },
+        message,
+    }
+}
+
+fn line_of(text: &str, offset: usize) -> usize {
+    text.as_bytes()[..offset.min(text.len())]
+        .iter()
+        .filter(|&&b| b == b'\n')
+        .count()
+        + 1
+}
+
+struct Checker<'a> {
+    text: &'a str,
+    path: &'a Path,
+}
+
+impl Checker<'_> {
+    fn err(&self, span: Range<usize>, key: &str, message: String) -> Error {
+        Error::Config {
+            path: self.path.to_path_buf(),
+            line: line_of(self.text, span.start),
+            key: key.to_string(),
+            message,
+        }
+    }
+
+    /// A number in `lo..=hi` (or `lo < v` when `open_lo`).
+    fn number(
+        &self,
+        v: &Opt<f64>,
+        key: &str,
+        default: f64,
+        lo: f64,
+        hi: f64,
+        open_lo: bool,
+    ) -> Result<f64> {
+        let Some(v) = v else { return Ok(default) };
+        let x = *v.get_ref();
+        let ok = x.is_finite() && x <= hi && if open_lo { x > lo } else { x >= lo };
+        if ok {
+            return Ok(x);
+        }
+        let range = match (open_lo, hi.is_finite()) {
+            (true, true) => format!("in ({lo}, {hi}]"),
+            (true, false) => format!("> {lo}"),
+            (false, true) => format!("in [{lo}, {hi}]"),
+            (false, false) => format!("≥ {lo}"),
+        };
+        Err(self.err(v.span(), key, format!("must be {range}, got {x}")))
+    }
+
+    fn length(&self, v: &Opt<Length>, key: &str) -> Result<Option<f64>> {
+        match v.as_ref().map(|s| (*s.get_ref(), s.span())) {
+            None | Some((Length::Auto, _)) => Ok(None),
+            Some((Length::Value(x), _)) if x.is_finite() && x > 0.0 => Ok(Some(x)),
+            Some((Length::Value(x), span)) => Err(self.err(
+                span,
+                key,
+                format!("must be a positive length in model units or \"auto\", got {x}"),
+            )),
+        }
+    }
+
+    fn choice<T: Copy>(
+        &self,
+        v: &Opt<String>,
+        key: &str,
+        default: T,
+        allowed: &[(&str, T)],
+    ) -> Result<T> {
+        let Some(v) = v else { return Ok(default) };
+        allowed
+            .iter()
+            .find(|(name, _)| *name == v.get_ref().as_str())
+            .map(|(_, t)| *t)
+            .ok_or_else(|| {
+                let names: Vec<String> = allowed.iter().map(|(n, _)| format!("\"{n}\"")).collect();
+                self.err(
+                    v.span(),
+                    key,
+                    format!(
+                        "must be one of {}, got \"{}\"",
+                        names.join(", "),
+                        v.get_ref()
+                    ),
+                )
+            })
+    }
+
+    fn relative(&self, p: &str) -> PathBuf {
+        let p = PathBuf::from(p);
+        if p.is_absolute() {
+            return p;
+        }
+        match self.path.parent() {
+            Some(dir) if !dir.as_os_str().is_empty() => dir.join(p),
+            _ => p,
+        }
+    }
+
+    fn validate(&self, raw: RawConfig) -> Result<Settings> {
+        let d = Settings::default();
+        let seed = match &raw.seed {
+            None => d.seed,
+            Some(s) if *s.get_ref() >= 0 => *s.get_ref() as u64,
+            Some(s) => {
+                return Err(self.err(
+                    s.span(),
+                    "seed",
+                    format!("must be ≥ 0, got {}", s.get_ref()),
+                ));
+            }
+        };
+        let threads = match &raw.threads {
+            None => d.threads,
+            Some(t) if (0..=4096).contains(t.get_ref()) => *t.get_ref() as usize,
+            Some(t) => {
+                return Err(self.err(
+                    t.span(),
+                    "threads",
+                    format!("must be in [0, 4096] (0 = all cores), got {}", t.get_ref()),
+                ));
+            }
+        };
+        let input = InputSettings {
+            path: match &raw.input.path {
+                Some(p) if p.get_ref().is_empty() => {
+                    return Err(self.err(p.span(), "input.path", "must not be empty".into()));
+                }
+                Some(p) => Some(self.relative(p.get_ref())),
+                None => None,
+            },
+            non_finite: self.choice(
+                &raw.input.non_finite,
+                "input.non_finite",
+                d.input.non_finite,
+                &[("reject", NonFinite::Reject), ("drop", NonFinite::Drop)],
+            )?,
+        };
+        let output = OutputSettings {
+            dir: match &raw.output.dir {
+                Some(p) if p.get_ref().is_empty() => {
+                    return Err(self.err(p.span(), "output.dir", "must not be empty".into()));
+                }
+                Some(p) => self.relative(p.get_ref()),
+                None => self.relative("out"),
+            },
+            encoding: self.choice(
+                &raw.output.encoding,
+                "output.encoding",
+                d.output.encoding,
+                &[
+                    ("binary", PlyEncoding::BinaryLittleEndian),
+                    ("ascii", PlyEncoding::Ascii),
+                ],
+            )?,
+            precision: self.choice(
+                &raw.output.precision,
+                "output.precision",
+                d.output.precision,
+                &[
+                    ("auto", Precision::Auto),
+                    ("float", Precision::Float),
+                    ("double", Precision::Double),
+                ],
+            )?,
+        };
+        let f = &raw.features;
+        let fd = &d.features;
+        let features = FeatureParams {
+            radius: self.length(&f.radius, "features.radius")?,
+            noise: match &f.noise {
+                Some(s) if matches!(s.get_ref(), Length::Value(x) if *x == 0.0) => Some(0.0),
+                _ => self.length(&f.noise, "features.noise")?,
+            },
+            min_radius: self.number(
+                &f.min_radius,
+                "features.min_radius",
+                fd.min_radius,
+                1.0,
+                100.0,
+                false,
+            )?,
+            noise_radius: self.number(
+                &f.noise_radius,
+                "features.noise_radius",
+                fd.noise_radius,
+                1.0,
+                100.0,
+                false,
+            )?,
+            threshold: self.number(
+                &f.plane_threshold,
+                "features.plane_threshold",
+                fd.threshold,
+                1.0,
+                f64::INFINITY,
+                true,
+            )?,
+            split_threshold: self.number(
+                &f.split_threshold,
+                "features.split_threshold",
+                fd.split_threshold,
+                0.0,
+                0.25,
+                true,
+            )?,
+            split_noise_factor: self.number(
+                &f.split_noise_factor,
+                "features.split_noise_factor",
+                fd.split_noise_factor,
+                1.0,
+                f64::INFINITY,
+                false,
+            )?,
+            outlier_share: self.number(
+                &f.outlier_share,
+                "features.outlier_share",
+                fd.outlier_share,
+                0.0,
+                1.0,
+                false,
+            )?,
+        };
+        Ok(Settings {
+            seed,
+            threads,
+            input,
+            output,
+            features,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn parse_str(s: &str) -> Result<Settings> {
+        parse(s, Path::new("pipeline.toml"))
+    }
+
+    fn err(s: &str) -> String {
+        parse_str(s).unwrap_err().to_string()
+    }
+
+    #[test]
+    fn empty_file_gives_defaults() {
+        let s = parse_str("").unwrap();
+        assert_eq!(
+            s,
+            Settings {
+                output: OutputSettings {
+                    dir: "out".into(),
+                    ..Settings::default().output
+                },
+                ..Settings::default()
+            }
+        );
+    }
+
+    #[test]
+    fn values_are_read() {
+        let s = parse_str(
+            "seed = 7\nthreads = 2\n[input]\npath = \"a/b.ply\"\nnon_finite = \"drop\"\n[output]\ndir = \"res\"\nencoding = \"ascii\"\nprecision = \"double\"\n[features]\nradius = 2.5\nnoise = \"auto\"\n",
+        )
+        .unwrap();
+        assert_eq!(s.seed, 7);
+        assert_eq!(s.threads, 2);
+        assert_eq!(s.input.path, Some(PathBuf::from("a/b.ply")));
+        assert_eq!(s.input.non_finite, NonFinite::Drop);
+        assert_eq!(s.output.dir, PathBuf::from("res"));
+        assert_eq!(s.output.encoding, PlyEncoding::Ascii);
+        assert_eq!(s.output.precision, Precision::Double);
+        assert_eq!(s.features.radius, Some(2.5));
+        assert_eq!(s.features.noise, None);
+    }
+
+    #[test]
+    fn relative_paths_follow_the_config_file() {
+        let s = parse(
+            "[input]\npath = \"scan.ply\"\n[output]\ndir = \"res\"\n",
+            Path::new("jobs/a/pipeline.toml"),
+        )
+        .unwrap();
+        assert_eq!(s.input.path, Some(PathBuf::from("jobs/a/scan.ply")));
+        assert_eq!(s.output.dir, PathBuf::from("jobs/a/res"));
+    }
+
+    #[test]
+    fn unknown_key_names_line_and_key() {
+        let e = err("seed = 1\n\n[features]\nradius = \"auto\"\nradios = 3\n");
+        assert!(e.starts_with("pipeline.toml:5: features"), "{e}");
+        assert!(e.contains("radios"), "{e}");
+    }
+
+    #[test]
+    fn unknown_table_is_rejected() {
+        let e = err("[featurez]\nradius = 1\n");
+        assert!(e.starts_with("pipeline.toml:1:"), "{e}");
+        assert!(e.contains("featurez"), "{e}");
+    }
+
+    #[test]
+    fn out_of_range_value_names_line_key_range_and_value() {
+        let e = err("[features]\n\noutlier_share = 1.5\n");
+        assert_eq!(
+            e,
+            "pipeline.toml:3: features.outlier_share: must be in [0, 1], got 1.5"
+        );
+        let e = err("threads = -1\n");
+        assert_eq!(
+            e,
+            "pipeline.toml:1: threads: must be in [0, 4096] (0 = all cores), got -1"
+        );
+    }
+
+    #[test]
+    fn bad_choice_lists_the_allowed_values() {
+        let e = err("[output]\nencoding = \"binary_big_endian\"\n");
+        assert_eq!(
+            e,
+            "pipeline.toml:2: output.encoding: must be one of \"binary\", \"ascii\", got \"binary_big_endian\""
+        );
+    }
+
+    #[test]
+    fn bad_length() {
+        let e = err("[features]\nradius = -2\n");
+        assert_eq!(
+            e,
+            "pipeline.toml:2: features.radius: must be a positive length in model units or \"auto\", got -2"
+        );
+        let e = err("[features]\nradius = \"big\"\n");
+        assert!(e.starts_with("pipeline.toml:2: features.radius:"), "{e}");
+        assert!(e.contains("\"auto\""), "{e}");
+    }
+
+    #[test]
+    fn wrong_type_names_line_and_key() {
+        let e = err("seed = \"one\"\n");
+        assert!(e.starts_with("pipeline.toml:1: seed:"), "{e}");
+    }
+
+    #[test]
+    fn syntax_error_names_the_line() {
+        let e = err("seed = 1\n[features\n");
+        assert!(e.starts_with("pipeline.toml:2:"), "{e}");
+    }
+
+    #[test]
+    fn settings_serialise_for_the_report() {
+        let s = parse_str("").unwrap();
+        let j = serde_json::to_value(&s).unwrap();
+        assert_eq!(j["output"]["encoding"], "binary");
+        assert_eq!(j["input"]["non_finite"], "reject");
+        assert_eq!(j["features"]["min_radius"], 4.0);
+    }
+}
