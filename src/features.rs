@@ -384,46 +384,7 @@ fn median_f32(v: &[f32]) -> f32 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use rand::rngs::SmallRng;
-    use rand::{RngExt, SeedableRng};
-
-    fn gauss(rng: &mut SmallRng) -> f64 {
-        // Box–Muller; tests only.
-        let u: f64 = rng.random::<f64>().max(1e-300);
-        let v: f64 = rng.random();
-        (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()
-    }
-
-    /// Two half-planes meeting along the y axis with the given dihedral angle (degrees),
-    /// jittered grid of pitch `h`, isotropic noise `sigma`. Returns points and their true
-    /// distance to the edge line.
-    fn dihedral(
-        angle: f64,
-        h: f64,
-        sigma: f64,
-        half_width: f64,
-        seed: u64,
-    ) -> (Vec<[f64; 3]>, Vec<f64>) {
-        let mut rng = SmallRng::seed_from_u64(seed);
-        let a = angle.to_radians();
-        // Face 1 along +x; face 2 along the direction at angle `a` from it in the xz plane.
-        let dirs = [[1.0, 0.0, 0.0], [a.cos(), 0.0, a.sin()]];
-        let (mut pts, mut dist) = (Vec::new(), Vec::new());
-        let n_s = (half_width / h) as usize;
-        let n_y = (40.0 / h) as usize;
-        for d in dirs {
-            for i in 0..n_s {
-                for j in 0..n_y {
-                    let s = (i as f64 + rng.random::<f64>()) * h;
-                    let y = (j as f64 + rng.random::<f64>()) * h;
-                    let p = [s * d[0], y, s * d[2]];
-                    pts.push(p.map(|c| c + sigma * gauss(&mut rng)));
-                    dist.push(s);
-                }
-            }
-        }
-        (pts, dist)
-    }
+    use crate::testdata::dihedral;
 
     #[test]
     fn noise_estimate_recovers_sigma() {

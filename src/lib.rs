@@ -14,7 +14,10 @@ pub mod fit;
 pub mod io;
 pub mod neighbours;
 pub mod progress;
+pub mod segment;
 pub mod synth;
+#[cfg(test)]
+pub(crate) mod testdata;
 
 pub use cloud::{Attribute, Cloud, Column, Source};
 pub use error::{Error, Result};
