@@ -193,7 +193,9 @@ fn round_trip_every_encoding_and_precision_with_every_type() {
     let refs: Vec<&Attribute> = attrs.iter().collect();
     for encoding in [PlyEncoding::BinaryLittleEndian, PlyEncoding::Ascii] {
         for precision in [Precision::F32, Precision::F64] {
-            let path = dir.path().join(format!("rt_{encoding:?}_{precision:?}.ply"));
+            let path = dir
+                .path()
+                .join(format!("rt_{encoding:?}_{precision:?}.ply"));
             let opts = PlyWriteOptions {
                 encoding,
                 precision,
@@ -207,7 +209,11 @@ fn round_trip_every_encoding_and_precision_with_every_type() {
                         Precision::F32 => f64::from(want[k] as f32),
                         Precision::F64 => want[k],
                     };
-                    assert_eq!(got[k].to_bits(), want_k.to_bits(), "{encoding:?} {precision:?}");
+                    assert_eq!(
+                        got[k].to_bits(),
+                        want_k.to_bits(),
+                        "{encoding:?} {precision:?}"
+                    );
                 }
             }
             assert_eq!(c.attributes.len(), attrs.len());
@@ -347,7 +353,11 @@ fn georeferenced_coordinates_survive_double() {
     let pos: Vec<[f64; 3]> = (0..100)
         .map(|i| {
             let t = f64::from(i);
-            [512345.123 + 0.001 * t, 4101234.567 - 0.003 * t, 80.25 + 1e-4 * t]
+            [
+                512345.123 + 0.001 * t,
+                4101234.567 - 0.003 * t,
+                80.25 + 1e-4 * t,
+            ]
         })
         .collect();
     for encoding in [PlyEncoding::BinaryLittleEndian, PlyEncoding::Ascii] {
@@ -376,7 +386,10 @@ fn georeferenced_coordinates_survive_double() {
         .zip(&pos)
         .map(|(a, b)| (a[1] - b[1]).abs())
         .fold(0.0, f64::max);
-    assert!(worst > 1e-2, "f32 error at 4e6 should be centimetres, got {worst}");
+    assert!(
+        worst > 1e-2,
+        "f32 error at 4e6 should be centimetres, got {worst}"
+    );
     assert!(!c.source.double_precision);
 }
 
@@ -439,7 +452,10 @@ fn writer_rejects_inconsistent_data_without_leaving_a_file() {
     ];
     for (r, want) in cases {
         let e = r.unwrap_err().to_string();
-        assert!(e.starts_with(&format!("{}: cannot write: ", path.display())), "{e}");
+        assert!(
+            e.starts_with(&format!("{}: cannot write: ", path.display())),
+            "{e}"
+        );
         assert!(e.contains(want), "{e}\nshould contain: {want}");
     }
     // NaN attributes are fine in binary (the value round-trips).
@@ -455,7 +471,8 @@ fn write_atomic_replaces_only_on_success() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("report.json");
     io::write_atomic(&path, |w| {
-        w.write_all(b"{\"v\": 1}").map_err(|e| sharpedge::Error::io("x", "w", e))
+        w.write_all(b"{\"v\": 1}")
+            .map_err(|e| sharpedge::Error::io("x", "w", e))
     })
     .unwrap();
     assert_eq!(std::fs::read(&path).unwrap(), b"{\"v\": 1}");
@@ -478,7 +495,11 @@ fn write_atomic_replaces_only_on_success() {
     {
         use std::os::unix::fs::PermissionsExt;
         let mode = std::fs::metadata(&path).unwrap().permissions().mode();
-        assert_eq!(mode & 0o044, 0o044, "outputs must be readable by others: {mode:o}");
+        assert_eq!(
+            mode & 0o044,
+            0o044,
+            "outputs must be readable by others: {mode:o}"
+        );
     }
 }
 
@@ -505,8 +526,12 @@ fn mixed_file(dir: &Path, enc: Enc) -> std::path::PathBuf {
          property list uint8 int32 vertex_indices\n",
     );
     let mut b = Body::new(enc);
-    b.list("uchar", "int", &[0.0, 1.0, 2.0]).val("uchar", 9.0).end();
-    b.list("uchar", "int", &[2.0, 1.0, 0.0, 1.0]).val("uchar", 8.0).end();
+    b.list("uchar", "int", &[0.0, 1.0, 2.0])
+        .val("uchar", 9.0)
+        .end();
+    b.list("uchar", "int", &[2.0, 1.0, 0.0, 1.0])
+        .val("uchar", 8.0)
+        .end();
     for (i, p) in [[1.5, -2.0, 0.25], [512345.125, 7.0, -1.0], [0.0, 0.0, 0.0]]
         .iter()
         .enumerate()
@@ -557,7 +582,12 @@ fn elements_before_and_after_vertices_are_skipped_in_every_encoding() {
         assert_eq!(
             types,
             [
-                "double x", "float y", "float z", "short label", "char tag", "uint big"
+                "double x",
+                "float y",
+                "float z",
+                "short label",
+                "char tag",
+                "uint big"
             ]
         );
         let other: Vec<(String, usize)> = info
@@ -565,7 +595,10 @@ fn elements_before_and_after_vertices_are_skipped_in_every_encoding() {
             .iter()
             .map(|e| (e.name.clone(), e.count))
             .collect();
-        assert_eq!(other, [("face".to_string(), 2), ("range_grid".to_string(), 2)]);
+        assert_eq!(
+            other,
+            [("face".to_string(), 2), ("range_grid".to_string(), 2)]
+        );
     }
 }
 
@@ -605,7 +638,8 @@ fn integer_coordinates_beyond_float_mantissa_need_double() {
 fn vertex_properties_past_the_inline_slots_are_kept() {
     // 12 extra properties: more than the typed path keeps inline per vertex.
     let dir = tempfile::tempdir().unwrap();
-    let mut props = String::from("element vertex 2\nproperty float x\nproperty float y\nproperty float z\n");
+    let mut props =
+        String::from("element vertex 2\nproperty float x\nproperty float y\nproperty float z\n");
     for i in 0..12 {
         props.push_str(&format!("property int p{i}\n"));
     }
@@ -626,7 +660,11 @@ fn vertex_properties_past_the_inline_slots_are_kept() {
             assert_eq!(c.attributes.len(), 12);
             for (i, a) in c.attributes.iter().enumerate() {
                 assert_eq!(a.name, format!("p{i}"));
-                assert_eq!(a.values, Column::I32(vec![i as i32, 100 + i as i32]), "{enc:?}");
+                assert_eq!(
+                    a.values,
+                    Column::I32(vec![i as i32, 100 + i as i32]),
+                    "{enc:?}"
+                );
             }
         }
     }
@@ -652,10 +690,7 @@ fn column_strategy(n: usize) -> impl Strategy<Value = Column> {
 fn cloud_strategy() -> impl Strategy<Value = (Vec<[f64; 3]>, Vec<Column>)> {
     (0usize..40).prop_flat_map(|n| {
         (
-            proptest::collection::vec(
-                proptest::array::uniform3(-1e7f64..1e7f64),
-                n,
-            ),
+            proptest::collection::vec(proptest::array::uniform3(-1e7f64..1e7f64), n),
             proptest::collection::vec(column_strategy(n), 0..5),
         )
     })

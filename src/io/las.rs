@@ -22,7 +22,23 @@ use crate::progress::Progress;
 /// slab in the tens of megabytes.
 const CHUNK: u64 = 1 << 18;
 
-fn las_error(path: &Path, place: impl Into<String>, e: las::Error) -> Error {
+/// True when the error comes from data ending too early (a short read somewhere below).
+fn is_short_read(e: &las::Error) -> bool {
+    if let las::Error::Io(io) = e {
+        return io.kind() == std::io::ErrorKind::UnexpectedEof;
+    }
+    let mut source = std::error::Error::source(e);
+    while let Some(s) = source {
+        if let Some(io) = s.downcast_ref::<std::io::Error>() {
+            return io.kind() == std::io::ErrorKind::UnexpectedEof;
+        }
+        source = s.source();
+    }
+    // The laz crate's error wraps the I/O error without exposing it as a source.
+    e.to_string().contains("failed to fill whole buffer")
+}
+
+fn las_error(path: &Path, place: impl Into<String>, in_header: bool, e: las::Error) -> Error {
     // A failing disk is an I/O error of the file; a short or garbled file is malformed.
     if let las::Error::Io(io) = &e {
         if !matches!(
@@ -36,13 +52,14 @@ fn las_error(path: &Path, place: impl Into<String>, e: las::Error) -> Error {
             );
         }
     }
-    let what = match &e {
-        las::Error::Io(io) if io.kind() == std::io::ErrorKind::UnexpectedEof => {
-            "the file ends early: it is truncated, or its header declares more points than it \
-             holds"
-                .to_string()
-        }
-        _ => format!("{e} (not a valid LAS/LAZ file, or a damaged one)"),
+    let what = match (is_short_read(&e), in_header) {
+        (true, true) => "the file ends inside its header, records or LAZ chunk table: it is \
+                         truncated"
+            .to_string(),
+        (true, false) => "the point data ends early: the file is truncated or damaged, or \
+                          its header declares more points than it holds"
+            .to_string(),
+        (false, _) => format!("{e} (not a valid LAS/LAZ file, or a damaged one)"),
     };
     Error::malformed(path, place, what)
 }
@@ -135,7 +152,7 @@ pub(crate) fn read(path: &Path) -> Result<Loaded> {
     let file = super::open(path)?;
     let file_len = file.metadata().map(|m| m.len()).unwrap_or(0);
     let mut reader = Reader::new(BufReader::with_capacity(1 << 17, file))
-        .map_err(|e| las_error(path, "header", e))?;
+        .map_err(|e| las_error(path, "header", true, e))?;
     let header = reader.header().clone();
     let format = *header.point_format();
     let n = header.number_of_points();
@@ -172,9 +189,15 @@ pub(crate) fn read(path: &Path) -> Result<Loaded> {
     };
     let mut done = 0u64;
     while done < n {
-        let got = reader
-            .fill_points(CHUNK.min(n - done), &mut pd)
-            .map_err(|e| las_error(path, format!("points {done}.. of {n}"), e))?;
+        let want = CHUNK.min(n - done);
+        let got = reader.fill_points(want, &mut pd).map_err(|e| {
+            las_error(
+                path,
+                format!("points {done}..{} of {n}", done + want),
+                false,
+                e,
+            )
+        })?;
         if got == 0 {
             return Err(Error::malformed(
                 path,
