@@ -155,8 +155,14 @@ fn synth(_cli: &Cli, _a: &SynthArgs) -> anyhow::Result<()> {
     anyhow::bail!("`synth` is being built")
 }
 
-fn info(_cli: &Cli, _a: &InfoArgs) -> anyhow::Result<()> {
-    anyhow::bail!("`info` is being built")
+fn info(_cli: &Cli, a: &InfoArgs) -> anyhow::Result<()> {
+    let info = sharpedge::io::describe(&a.file)?;
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&info)?);
+    } else {
+        print!("{info}");
+    }
+    Ok(())
 }
 
 fn experiment(_cli: &Cli, _a: &ExperimentArgs) -> anyhow::Result<()> {

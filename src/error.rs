@@ -17,8 +17,10 @@ pub type Result<T, E = Error> = std::result::Result<T, E>;
 #[derive(Debug, thiserror::Error)]
 pub enum Error {
     // ---- files and formats (io/) ----
-    /// The OS refused an operation on a file (missing, unreadable, unwritable).
-    #[error("{}: {action}: {source}", path.display())]
+    /// The OS refused an operation on a file (missing, unreadable, unwritable). The OS's reason
+    /// is the error's `source()`, not repeated in its own message (`main` prints the chain
+    /// with `{:#}`, which would show it twice).
+    #[error("{}: {action}", path.display())]
     Io {
         path: PathBuf,
         /// What we were doing, e.g. "cannot open", "cannot create temporary file in".
@@ -45,6 +47,11 @@ pub enum Error {
     /// The cloud cannot be processed: empty, one point, all points identical, NaN coordinates.
     #[error("{}: {what}", path.display())]
     BadCloud { path: PathBuf, what: String },
+    /// Data handed to a writer cannot be stored as asked: columns of the wrong length, a
+    /// property name the format cannot hold, an edge pointing past the last vertex, a NaN
+    /// position. A bug of the caller, reported instead of writing a file viewers misread.
+    #[error("{}: cannot write: {what}", path.display())]
+    BadOutput { path: PathBuf, what: String },
 
     // ---- configuration (config.rs, cli.rs) ----
     /// A bad key or value in a pipeline file. `line` is 1-based; 0 when unknown.

@@ -1,18 +1,443 @@
 //! Reading and writing point clouds. Format details (PLY, LAS/LAZ, XYZ, meshes) stay in here;
 //! the rest of the library sees only `Cloud`.
+//!
+//! Inputs: a path whose extension names the format (`.ply`, `.las`, `.laz` including COPC
+//! `.copc.laz`, and the text formats `.xyz`, `.txt`, `.pts`, `.pwn`). Outputs: a [`Cloud`] with
+//! f64 positions in file order, every per-point property as a typed [`Attribute`], and a
+//! [`Source`](crate::Source) saying where it came from and whether its coordinates need double
+//! precision. Writers produce PLY (binary little endian or ascii, float or double
+//! coordinates, an optional `element edge`) and arbitrary files, always atomically: a
+//! temporary file in the destination folder is renamed into place only once complete, so a
+//! failure leaves no partial output behind.
+//!
+//! Points with NaN or infinite coordinates are rejected (error naming the first bad point) or
+//! dropped with a warning, as the caller chooses in [`ReadOptions`].
 
 pub mod mesh;
 
+mod las;
+mod ply;
+mod xyz;
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use serde::Serialize;
+
+use crate::cloud::{Attribute, Cloud};
+use crate::error::{Error, Result};
+
+pub use ply::{PlyEncoding, PlyWriteOptions, Precision, write_ply};
+
 /// What to do with points whose coordinates are NaN or infinite.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
 pub enum NonFinite {
+    /// Fail with an error naming the first such point (the default: bad data is not silent).
+    #[default]
     Reject,
+    /// Remove those points (and their attribute values) and log a warning with their count.
     Drop,
 }
 
-/// PLY body encoding of written files.
+/// Options of [`read`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct ReadOptions {
+    pub non_finite: NonFinite,
+}
+
+/// The extensions [`read`] accepts, for error messages.
+const READ_EXTENSIONS: &str =
+    "sharpedge reads .ply, .las, .laz (also .copc.laz), and text .xyz, .txt, .pts, .pwn";
+
+/// Point counts from which readers show a progress bar (small files would only flicker).
+pub(crate) const PROGRESS_MIN_POINTS: u64 = 1 << 20;
+
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum PlyEncoding {
-    BinaryLittleEndian,
-    Ascii,
+enum Format {
+    Ply,
+    Las,
+    Xyz,
+}
+
+fn format_of(path: &Path) -> Result<Format> {
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().to_ascii_lowercase())
+        .unwrap_or_default();
+    let ext = name.rsplit_once('.').map(|(_, e)| e).unwrap_or("");
+    match ext {
+        "ply" => Ok(Format::Ply),
+        // The las crate tells LAS from LAZ (and COPC, which is LAZ 1.4) by the header.
+        "las" | "laz" => Ok(Format::Las),
+        "xyz" | "txt" | "pts" | "pwn" => Ok(Format::Xyz),
+        _ => Err(Error::UnknownFormat {
+            path: path.to_path_buf(),
+            ext: ext.to_string(),
+            allowed: READ_EXTENSIONS,
+        }),
+    }
+}
+
+/// What a format reader hands back: the cloud with every point (finite or not) and the
+/// description of the file that `describe` prints.
+pub(crate) struct Loaded {
+    pub cloud: Cloud,
+    /// The coordinate properties with their stored types, then one entry per attribute.
+    pub properties: Vec<PropertyInfo>,
+    /// Elements of the file that are not points (PLY faces, edges, ...), with their counts.
+    pub other_elements: Vec<ElementInfo>,
+}
+
+fn load(path: &Path) -> Result<Loaded> {
+    let format = format_of(path)?;
+    let loaded = match format {
+        Format::Ply => ply::read(path, ply::VertexPath::Fast)?,
+        Format::Las => las::read(path)?,
+        Format::Xyz => xyz::read(path)?,
+    };
+    debug_assert!(
+        loaded.cloud.is_consistent(),
+        "reader bug: attribute lengths"
+    );
+    Ok(loaded)
+}
+
+/// Reads a cloud by extension: `.ply`, `.las`, `.laz` (incl. COPC `.copc.laz`),
+/// `.xyz`/`.txt`/`.pts`/`.pwn` (whitespace or comma separated `x y z [more columns]`). Shows a
+/// progress bar for big files. An empty file (0 points) is not an error here; the pipeline
+/// decides what to do with it.
+pub fn read(path: &Path, opts: &ReadOptions) -> Result<Cloud> {
+    let _span = tracing::debug_span!("read", path = %path.display()).entered();
+    let mut cloud = load(path)?.cloud;
+    apply_non_finite(&mut cloud, opts.non_finite)?;
+    tracing::debug!(
+        points = cloud.len(),
+        format = %cloud.source.format,
+        "read {}",
+        path.display()
+    );
+    Ok(cloud)
+}
+
+fn is_finite_point(p: &[f64; 3]) -> bool {
+    p.iter().all(|c| c.is_finite())
+}
+
+fn apply_non_finite(cloud: &mut Cloud, policy: NonFinite) -> Result<()> {
+    let bad = cloud
+        .positions
+        .iter()
+        .filter(|p| !is_finite_point(p))
+        .count();
+    if bad == 0 {
+        return Ok(());
+    }
+    let path = cloud.source.path.clone();
+    match policy {
+        NonFinite::Reject => {
+            let first = cloud
+                .positions
+                .iter()
+                .position(|p| !is_finite_point(p))
+                .unwrap_or(0);
+            let p = cloud.positions[first];
+            Err(Error::BadCloud {
+                path,
+                what: format!(
+                    "point {first} (0-based, in file order) has a non-finite coordinate \
+                     (x = {}, y = {}, z = {}); {bad} of {} points are NaN or infinite. \
+                     Fix the file, or read it with non-finite points dropped",
+                    p[0],
+                    p[1],
+                    p[2],
+                    cloud.len()
+                ),
+            })
+        }
+        NonFinite::Drop => {
+            let keep: Vec<bool> = cloud.positions.iter().map(is_finite_point).collect();
+            let total = cloud.len();
+            cloud.retain_mask(&keep);
+            tracing::warn!(
+                "{}: dropped {bad} of {total} points with NaN or infinite coordinates",
+                path.display()
+            );
+            Ok(())
+        }
+    }
+}
+
+/// Reads a PLY file's vertices with ply-rs-bw's typed path only, never the hand-written
+/// binary decoder that [`read`] uses for binary files. For the benchmark and the tests that
+/// check the fast path against the crate; not part of the supported API.
+#[doc(hidden)]
+pub fn read_ply_via_crate(path: &Path) -> Result<Cloud> {
+    Ok(ply::read(path, ply::VertexPath::Crate)?.cloud)
+}
+
+/// A property of the points as stored in the file.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+pub struct PropertyInfo {
+    pub name: String,
+    /// The stored type: a PLY type name (`float`, `uchar`, ...), `text` for text
+    /// files, `int32 * 0.01 + 0` for scaled LAS coordinates.
+    #[serde(rename = "type")]
+    pub ty: String,
+}
+
+/// A non-point element of a file (PLY `face`, `edge`, ...), which the readers skip.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+pub struct ElementInfo {
+    pub name: String,
+    pub count: usize,
+}
+
+/// Axis-aligned bounding box of the finite points.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct BBox {
+    pub min: [f64; 3],
+    pub max: [f64; 3],
+}
+
+impl BBox {
+    pub fn size(&self) -> [f64; 3] {
+        [
+            self.max[0] - self.min[0],
+            self.max[1] - self.min[1],
+            self.max[2] - self.min[2],
+        ]
+    }
+}
+
+/// What `sharpedge info` prints (also as JSON).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct FileInfo {
+    pub path: PathBuf,
+    /// Human-readable format, as in `Cloud::source.format`.
+    pub format: String,
+    /// Number of points stored in the file (including non-finite ones).
+    pub points: usize,
+    /// Points with a NaN or infinite coordinate (counted, not in the bounding box).
+    pub non_finite: usize,
+    /// x, y, z with their stored types, then every attribute the reader carries.
+    pub properties: Vec<PropertyInfo>,
+    /// Elements that are not points (faces, edges, ...): skipped by the reader.
+    pub other_elements: Vec<ElementInfo>,
+    /// Bounding box of the finite points; `None` when there are none.
+    pub bbox: Option<BBox>,
+    /// True when the coordinates need double precision (outputs are then written as double).
+    pub double_precision: bool,
+    /// Mean distance to the nearest neighbour (filled by the neighbours module; None here).
+    pub mean_spacing: Option<f64>,
+}
+
+impl std::fmt::Display for FileInfo {
+    /// The text `sharpedge info` prints: one `label: value` line per fact.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        writeln!(f, "file:        {}", self.path.display())?;
+        writeln!(f, "format:      {}", self.format)?;
+        write!(f, "points:      {}", self.points)?;
+        if self.non_finite > 0 {
+            write!(f, " ({} with NaN or infinite coordinates)", self.non_finite)?;
+        }
+        writeln!(f)?;
+        let props: Vec<String> = self
+            .properties
+            .iter()
+            .map(|p| format!("{} ({})", p.name, p.ty))
+            .collect();
+        writeln!(f, "properties:  {}", props.join(", "))?;
+        if !self.other_elements.is_empty() {
+            let els: Vec<String> = self
+                .other_elements
+                .iter()
+                .map(|e| format!("{} {}", e.name, e.count))
+                .collect();
+            writeln!(f, "not read:    {}", els.join(", "))?;
+        }
+        match &self.bbox {
+            Some(b) => {
+                let s = b.size();
+                writeln!(f, "bbox min:    {} {} {}", b.min[0], b.min[1], b.min[2])?;
+                writeln!(f, "bbox max:    {} {} {}", b.max[0], b.max[1], b.max[2])?;
+                writeln!(f, "size:        {} {} {}", s[0], s[1], s[2])?;
+            }
+            None => writeln!(f, "bbox:        none (no finite points)")?,
+        }
+        writeln!(
+            f,
+            "precision:   {}",
+            if self.double_precision {
+                "double (the file is more precise than float at this magnitude)"
+            } else {
+                "float is enough"
+            }
+        )?;
+        match self.mean_spacing {
+            Some(s) => writeln!(f, "spacing:     {s} (mean nearest-neighbour distance)"),
+            None => writeln!(f, "spacing:     not computed"),
+        }
+    }
+}
+
+/// Describes a file: format, point count, properties with types, bounding box. Reads the whole
+/// file (the bounding box and the non-finite count need every point).
+pub fn describe(path: &Path) -> Result<FileInfo> {
+    let loaded = load(path)?;
+    let cloud = &loaded.cloud;
+    let mut bbox: Option<BBox> = None;
+    let mut non_finite = 0;
+    for p in &cloud.positions {
+        if !is_finite_point(p) {
+            non_finite += 1;
+            continue;
+        }
+        let b = bbox.get_or_insert(BBox { min: *p, max: *p });
+        for (k, c) in p.iter().enumerate() {
+            b.min[k] = b.min[k].min(*c);
+            b.max[k] = b.max[k].max(*c);
+        }
+    }
+    Ok(FileInfo {
+        path: path.to_path_buf(),
+        format: cloud.source.format.clone(),
+        points: cloud.len(),
+        non_finite,
+        properties: loaded.properties,
+        other_elements: loaded.other_elements,
+        bbox,
+        double_precision: cloud.source.double_precision,
+        mean_spacing: None,
+    })
+}
+
+/// Writes a file atomically: `f` writes into a buffered temporary file created in the
+/// destination folder, which is renamed onto `path` only when `f` and the flush succeed. On
+/// any failure the temporary file is removed and `path` is left as it was.
+///
+/// The guarantee is about failures of this process (errors, panics): the data is not
+/// fsync'ed, so a power loss right after the rename can still lose it.
+pub fn write_atomic(path: &Path, f: impl FnOnce(&mut dyn Write) -> Result<()>) -> Result<()> {
+    let dir = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    let mut builder = tempfile::Builder::new();
+    builder.prefix(".sharpedge-").suffix(".part");
+    // NamedTempFile defaults to mode 0600; outputs are ordinary files that colleagues and
+    // viewers must be able to open, so ask for 0644 (the umask still applies).
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        builder.permissions(std::fs::Permissions::from_mode(0o644));
+    }
+    let tmp = builder.tempfile_in(dir).map_err(|e| {
+        Error::io(
+            path,
+            "cannot create a temporary file in the output folder (does it exist, is it writable?)",
+            e,
+        )
+    })?;
+    {
+        let mut w = std::io::BufWriter::with_capacity(1 << 20, tmp.as_file());
+        f(&mut w)?;
+        w.flush()
+            .map_err(|e| Error::io(path, "cannot write (disk full?)", e))?;
+    }
+    tmp.persist(path).map_err(|e| {
+        Error::io(
+            path,
+            "cannot rename the finished temporary file to this name",
+            e.error,
+        )
+    })?;
+    Ok(())
+}
+
+/// The distance between `v` and the next f32 towards infinity: the finest step f32 can store
+/// at the magnitude of `v` (2^-149 near zero).
+pub(crate) fn f32_step(v: f64) -> f64 {
+    let a = v.abs() as f32;
+    if !a.is_finite() {
+        return f64::INFINITY;
+    }
+    let next = f32::from_bits(a.to_bits() + 1);
+    f64::from(next) - f64::from(a)
+}
+
+/// Opens a file for reading, with the error naming the file.
+pub(crate) fn open(path: &Path) -> Result<std::fs::File> {
+    let file = std::fs::File::open(path).map_err(|e| Error::io(path, "cannot open", e))?;
+    // Opening a directory succeeds on Unix; say what is wrong before a confusing read error.
+    if file.metadata().map(|m| m.is_dir()).unwrap_or(false) {
+        return Err(Error::io(
+            path,
+            "cannot read",
+            std::io::Error::other("it is a directory, not a file"),
+        ));
+    }
+    Ok(file)
+}
+
+/// A named attribute, for readers.
+pub(crate) fn attribute(name: &str, values: crate::Column) -> Attribute {
+    Attribute {
+        name: name.to_string(),
+        values,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn format_by_extension_ignores_case_and_knows_copc() {
+        assert_eq!(format_of(Path::new("a/B.PLY")).ok(), Some(Format::Ply));
+        assert_eq!(format_of(Path::new("x.copc.laz")).ok(), Some(Format::Las));
+        assert_eq!(format_of(Path::new("x.Las")).ok(), Some(Format::Las));
+        assert_eq!(format_of(Path::new("x.pwn")).ok(), Some(Format::Xyz));
+        let e = format_of(Path::new("dir/part.stl"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.starts_with("dir/part.stl: unknown file type \"stl\""),
+            "{e}"
+        );
+        assert!(e.contains(".ply"), "{e}");
+        let e = format_of(Path::new("noext")).unwrap_err().to_string();
+        assert!(e.contains("unknown file type \"\""), "{e}");
+    }
+
+    #[test]
+    fn f32_step_matches_the_float_grid() {
+        assert_eq!(f32_step(1.0), f64::from(f32::EPSILON));
+        // At 512345 f32 keeps 2^19 * 2^-23 = 1/16 m steps: far coarser than a millimetre.
+        assert_eq!(f32_step(512345.123), 0.03125);
+        assert_eq!(f32_step(-4101234.567), 0.25);
+        assert!(f32_step(0.0) > 0.0);
+        assert_eq!(f32_step(1e300), f64::INFINITY);
+    }
+
+    #[test]
+    fn non_finite_reject_names_the_first_bad_point() {
+        let mut c = Cloud::from_positions(vec![[0.0; 3], [1.0, f64::NAN, 2.0], [f64::INFINITY; 3]]);
+        c.source.path = "scan.ply".into();
+        let e = apply_non_finite(&mut c, NonFinite::Reject)
+            .unwrap_err()
+            .to_string();
+        assert!(e.starts_with("scan.ply: point 1 "), "{e}");
+        assert!(e.contains("y = NaN"), "{e}");
+        assert!(e.contains("2 of 3 points"), "{e}");
+    }
+
+    #[test]
+    fn non_finite_drop_keeps_attributes_aligned() {
+        let mut c = Cloud::from_positions(vec![[0.0; 3], [f64::NAN, 0.0, 0.0], [2.0; 3]]);
+        c.attributes
+            .push(attribute("id", crate::Column::I32(vec![10, 11, 12])));
+        apply_non_finite(&mut c, NonFinite::Drop).unwrap();
+        assert_eq!(c.positions, vec![[0.0; 3], [2.0; 3]]);
+        assert_eq!(c.attributes[0].values, crate::Column::I32(vec![10, 12]));
+    }
 }
