@@ -14,7 +14,7 @@ pub struct Cli {
     /// Print only errors (no progress bars, no summary).
     #[arg(short, long, global = true, conflicts_with = "verbose")]
     pub quiet: bool,
-    /// More log output: -v for debug, -vv for trace. RUST_LOG overrides.
+    /// More log output: -v stage details, -vv debug, -vvv trace. RUST_LOG overrides.
     #[arg(short, long, global = true, action = clap::ArgAction::Count)]
     pub verbose: u8,
     #[command(subcommand)]
@@ -147,8 +147,60 @@ pub fn dispatch(cli: &Cli) -> anyhow::Result<()> {
     }
 }
 
-fn run(_cli: &Cli, _a: &RunArgs) -> anyhow::Result<()> {
-    anyhow::bail!("`run` is being built")
+fn run(cli: &Cli, a: &RunArgs) -> anyhow::Result<()> {
+    let mut settings = sharpedge::config::load(&a.config)?;
+    // Command-line paths are relative to the working directory, like any shell argument.
+    if let Some(input) = &a.input {
+        settings.input.path = Some(input.clone());
+    }
+    if let Some(out) = &a.out {
+        settings.output.dir = out.clone();
+    }
+    if let Some(t) = a.threads {
+        settings.threads = t;
+    }
+    let summary = sharpedge::pipeline::run(&settings)?;
+    if !cli.quiet {
+        eprint!("{}", summary_text(&summary));
+    }
+    Ok(())
+}
+
+/// The one-screen summary printed at the end of `run`.
+fn summary_text(s: &sharpedge::pipeline::Summary) -> String {
+    use std::fmt::Write;
+    let mut t = String::new();
+    let total: f64 = s.timings.iter().map(|t| t.seconds).sum();
+    let _ = writeln!(
+        t,
+        "sharpedge {}: {}",
+        env!("CARGO_PKG_VERSION"),
+        s.input.display()
+    );
+    let _ = writeln!(
+        t,
+        "  points {}   spacing {:.4}   noise sigma {:.4} ({:.2} spacings)   radius {:.4}",
+        s.points,
+        s.scale.spacing,
+        s.scale.noise,
+        s.scale.noise / s.scale.spacing,
+        s.scale.radius
+    );
+    let _ = writeln!(
+        t,
+        "  candidates {}   outliers {}   edges {}   corners {}   moved points {}   failed fits {}",
+        s.candidates, s.outliers, s.edges, s.corners, s.moved, s.failed
+    );
+    let stages: Vec<String> = s
+        .timings
+        .iter()
+        .map(|x| format!("{} {:.2}s", x.stage, x.seconds))
+        .collect();
+    let _ = writeln!(t, "  time {total:.2} s: {}", stages.join(", "));
+    for o in &s.outputs {
+        let _ = writeln!(t, "  wrote {}", o.display());
+    }
+    t
 }
 
 fn synth(_cli: &Cli, _a: &SynthArgs) -> anyhow::Result<()> {

@@ -19,6 +19,7 @@ use toml::Spanned;
 use crate::error::{Error, Result};
 use crate::features::FeatureParams;
 use crate::io::{NonFinite, PlyEncoding};
+use crate::segment::SegmentParams;
 
 /// A length in model units, or `"auto"`: derived from the cloud's measured spacing and noise.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -71,6 +72,8 @@ struct RawConfig {
     output: RawOutput,
     #[serde(default)]
     features: RawFeatures,
+    #[serde(default)]
+    segment: RawSegment,
 }
 
 #[derive(Debug, Default, Deserialize)]
@@ -99,6 +102,19 @@ struct RawFeatures {
     split_threshold: Opt<f64>,
     split_noise_factor: Opt<f64>,
     outlier_share: Opt<f64>,
+}
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawSegment {
+    direction_tolerance: Opt<f64>,
+    turn_angle: Opt<f64>,
+    tube: Opt<f64>,
+    min_length: Opt<f64>,
+    corner_ratio: Opt<f64>,
+    vertex_gap: Opt<f64>,
+    vertex_reach: Opt<f64>,
+    min_density: Opt<f64>,
 }
 
 // ---- typed: what the core uses ----
@@ -139,6 +155,7 @@ pub struct Settings {
     pub input: InputSettings,
     pub output: OutputSettings,
     pub features: FeatureParams,
+    pub segment: SegmentParams,
 }
 
 impl Default for Settings {
@@ -156,6 +173,7 @@ impl Default for Settings {
                 precision: Precision::Auto,
             },
             features: FeatureParams::default(),
+            segment: SegmentParams::default(),
         }
     }
 }
@@ -447,12 +465,74 @@ impl Checker<'_> {
                 false,
             )?,
         };
+        let g = &raw.segment;
+        let gd = &d.segment;
+        let segment = SegmentParams {
+            direction_tolerance: self.number(
+                &g.direction_tolerance,
+                "segment.direction_tolerance",
+                gd.direction_tolerance,
+                0.0,
+                89.0,
+                true,
+            )?,
+            turn_angle: self.number(
+                &g.turn_angle,
+                "segment.turn_angle",
+                gd.turn_angle,
+                0.0,
+                89.0,
+                true,
+            )?,
+            tube: self.number(&g.tube, "segment.tube", gd.tube, 0.0, 10.0, true)?,
+            min_length: self.number(
+                &g.min_length,
+                "segment.min_length",
+                gd.min_length,
+                0.0,
+                f64::INFINITY,
+                false,
+            )?,
+            corner_ratio: self.number(
+                &g.corner_ratio,
+                "segment.corner_ratio",
+                gd.corner_ratio,
+                0.0,
+                1.0,
+                true,
+            )?,
+            vertex_gap: self.number(
+                &g.vertex_gap,
+                "segment.vertex_gap",
+                gd.vertex_gap,
+                0.0,
+                10.0,
+                true,
+            )?,
+            vertex_reach: self.number(
+                &g.vertex_reach,
+                "segment.vertex_reach",
+                gd.vertex_reach,
+                0.0,
+                100.0,
+                true,
+            )?,
+            min_density: self.number(
+                &g.min_density,
+                "segment.min_density",
+                gd.min_density,
+                0.0,
+                1.0,
+                false,
+            )?,
+        };
         Ok(Settings {
             seed,
             threads,
             input,
             output,
             features,
+            segment,
         })
     }
 }

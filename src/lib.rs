@@ -13,7 +13,9 @@ pub mod features;
 pub mod fit;
 pub mod io;
 pub mod neighbours;
+pub mod pipeline;
 pub mod progress;
+pub mod report;
 pub mod segment;
 pub mod synth;
 #[cfg(test)]

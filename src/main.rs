@@ -14,8 +14,9 @@ use tracing_subscriber::{EnvFilter, Layer};
 fn init_logging(quiet: bool, verbose: u8) {
     let default = match (quiet, verbose) {
         (true, _) => "error",
-        (false, 0) => "warn,sharpedge=info",
-        (false, 1) => "warn,sharpedge=debug",
+        (false, 0) => "warn",
+        (false, 1) => "warn,sharpedge=info",
+        (false, 2) => "warn,sharpedge=debug",
         (false, _) => "trace",
     };
     let filter = EnvFilter::try_from_default_env().unwrap_or_else(|_| EnvFilter::new(default));

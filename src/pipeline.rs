@@ -1,0 +1,260 @@
+//! The fixed order of the stages, their timings, the thread pool and the seed.
+//!
+//! Input: validated `Settings` (input path and output folder already resolved). Output: the
+//! files of the output contract (rectified.ply, features.ply, report.json in the output
+//! folder) and a `Summary` for the one-screen report. Each stage is a plain function of the
+//! library; this module only calls them in order and times them.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use crate::cloud::Cloud;
+use crate::config::Settings;
+use crate::error::{Error, Result};
+use crate::features::{self, Features, Scale};
+use crate::io;
+use crate::neighbours::{self, Grid};
+use crate::progress::Progress;
+use crate::report::{self, CornerOut, EdgeOut};
+use crate::segment::{self, Segments};
+
+/// Wall time of one stage.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct Timing {
+    pub stage: &'static str,
+    pub seconds: f64,
+}
+
+/// What a run did, for the summary screen (report.json has the full detail).
+#[derive(Debug, Clone)]
+pub struct Summary {
+    pub input: PathBuf,
+    pub points: usize,
+    pub scale: Scale,
+    pub candidates: usize,
+    pub outliers: usize,
+    pub edges: usize,
+    pub corners: usize,
+    pub moved: usize,
+    pub failed: usize,
+    pub timings: Vec<Timing>,
+    pub outputs: Vec<PathBuf>,
+}
+
+/// Everything the stages computed, for the writers and for tests.
+pub struct Outcome {
+    pub cloud: Cloud,
+    pub scale: Scale,
+    pub features: Features,
+    pub segments: Segments,
+    /// Edges and corners as reported.
+    pub edges: Vec<EdgeOut>,
+    pub corners: Vec<CornerOut>,
+    /// Rectified positions (equal to the input where nothing moved) and the moved flags.
+    pub rectified: Vec<[f64; 3]>,
+    pub moved: Vec<bool>,
+    /// Edge id of every point (`u32::MAX` for none).
+    pub edge_label: Vec<u32>,
+    /// One line per fit that failed (counted and reported, never fatal).
+    pub failures: Vec<String>,
+}
+
+struct Clock {
+    timings: Vec<Timing>,
+    last: Instant,
+}
+
+impl Clock {
+    fn new() -> Self {
+        Clock {
+            timings: Vec::new(),
+            last: Instant::now(),
+        }
+    }
+    fn lap(&mut self, stage: &'static str) {
+        let now = Instant::now();
+        let seconds = (now - self.last).as_secs_f64();
+        tracing::info!("{stage}: {seconds:.3} s");
+        self.timings.push(Timing { stage, seconds });
+        self.last = now;
+    }
+}
+
+/// Runs the whole pipeline and writes the outputs.
+pub fn run(settings: &Settings) -> Result<Summary> {
+    let input = settings.input.path.clone().ok_or_else(|| Error::Usage {
+        option: "input".into(),
+        message: "no input cloud: set input.path in the pipeline file or pass --input".into(),
+    })?;
+    let out_dir = settings.output.dir.clone();
+    prepare_output_dir(&out_dir)?;
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(settings.threads)
+        .build()
+        .map_err(|e| Error::Usage {
+            option: "threads".into(),
+            message: format!("cannot start {} worker threads: {e}", settings.threads),
+        })?;
+    pool.install(|| {
+        let mut clock = Clock::new();
+        let cloud = io::read(
+            &input,
+            &io::ReadOptions {
+                non_finite: settings.input.non_finite,
+            },
+        )?;
+        clock.lap("read");
+        let outcome = process(cloud, settings, &mut clock)?;
+        let outputs = report::write_all(&outcome, settings, &out_dir, &clock.timings)?;
+        clock.lap("write");
+        Ok(Summary {
+            input,
+            points: outcome.cloud.len(),
+            scale: outcome.scale,
+            candidates: outcome.features.candidate.iter().filter(|&&c| c).count(),
+            outliers: outcome.features.outlier.iter().filter(|&&c| c).count(),
+            edges: outcome.edges.len(),
+            corners: outcome.corners.len(),
+            moved: outcome.moved.iter().filter(|&&m| m).count(),
+            failed: outcome.failures.len(),
+            timings: clock.timings,
+            outputs,
+        })
+    })
+}
+
+/// The stages between reading and writing, on a cloud in memory.
+pub fn process(cloud: Cloud, settings: &Settings, clock: &mut impl LapClock) -> Result<Outcome> {
+    check_cloud(&cloud)?;
+    let spacing =
+        neighbours::mean_spacing(&cloud.positions, 50_000).ok_or_else(|| Error::BadCloud {
+            path: cloud.source.path.clone(),
+            what: "all points are identical: there is no surface to analyse".into(),
+        })?;
+    let scale = features::estimate_scale(&cloud.positions, spacing, &settings.features, 20_000)?;
+    tracing::info!(
+        "spacing {:.6}, noise sigma {:.6} ({:.2} spacings), radius {:.6}",
+        scale.spacing,
+        scale.noise,
+        scale.noise / scale.spacing,
+        scale.radius
+    );
+    clock.lap("scale");
+    let grid = Grid::new(&cloud.positions, scale.radius)?;
+    clock.lap("neighbours");
+    let progress = Progress::start("features", cloud.len() as u64, "points");
+    let features = features::features(
+        &cloud.positions,
+        &grid,
+        &scale,
+        &settings.features,
+        &progress,
+    );
+    drop(progress);
+    clock.lap("features");
+    let segments = segment::segment(&cloud.positions, &features, &scale, &settings.segment);
+    clock.lap("segment");
+    let (edges, corners) = rough_edges(&segments);
+    let rectified = cloud.positions.clone();
+    let moved = vec![false; cloud.len()];
+    let edge_label = segments.label.clone();
+    Ok(Outcome {
+        cloud,
+        scale,
+        features,
+        segments,
+        edges,
+        corners,
+        rectified,
+        moved,
+        edge_label,
+        failures: Vec::new(),
+    })
+}
+
+/// Edges straight from the runs' lines, ending at their vertices.
+fn rough_edges(segments: &Segments) -> (Vec<EdgeOut>, Vec<CornerOut>) {
+    let corners: Vec<CornerOut> = segments
+        .vertices
+        .iter()
+        .enumerate()
+        .map(|(id, v)| CornerOut {
+            id,
+            position: v.position,
+            edges: v.ends.iter().map(|e| e.0).collect(),
+            error: None,
+        })
+        .collect();
+    let edges = segments
+        .runs
+        .iter()
+        .enumerate()
+        .map(|(id, run)| {
+            let at = |t: f64| [0, 1, 2].map(|k| run.origin[k] + t * run.direction[k]);
+            let ends = [0, 1].map(|e| match run.vertices[e] {
+                Some(v) => segments.vertices[v].position,
+                None => at(run.t_range[e]),
+            });
+            EdgeOut {
+                id,
+                start: ends[0],
+                end: ends[1],
+                direction: run.direction,
+                points: run.points.len(),
+                rms: 0.0,
+                corners: run.vertices,
+                convex: None,
+                dihedral_deg: None,
+                polyline: ends.to_vec(),
+                rectified: Vec::new(),
+                error: None,
+            }
+        })
+        .collect();
+    (edges, corners)
+}
+
+/// Timing of stages; tests pass a clock that ignores them.
+pub trait LapClock {
+    fn lap(&mut self, stage: &'static str);
+}
+
+impl LapClock for Clock {
+    fn lap(&mut self, stage: &'static str) {
+        Clock::lap(self, stage)
+    }
+}
+
+/// A clock that records nothing.
+pub struct NoClock;
+
+impl LapClock for NoClock {
+    fn lap(&mut self, _: &'static str) {}
+}
+
+/// Rejects clouds no stage can work on, with the reason and the file.
+fn check_cloud(cloud: &Cloud) -> Result<()> {
+    let path = cloud.source.path.clone();
+    match cloud.len() {
+        0 => Err(Error::BadCloud {
+            path,
+            what: "the cloud has no points".into(),
+        }),
+        n if n < 10 => Err(Error::BadCloud {
+            path,
+            what: format!(
+                "the cloud has only {n} point(s); edge extraction needs a scanned surface (thousands of points)"
+            ),
+        }),
+        _ => Ok(()),
+    }
+}
+
+/// Creates the output folder and checks that it is writable before any work is done, so a
+/// typo in `--out` costs a second, not a whole run.
+fn prepare_output_dir(dir: &Path) -> Result<()> {
+    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, "cannot create output folder", e))?;
+    tempfile::NamedTempFile::new_in(dir)
+        .map(drop)
+        .map_err(|e| Error::io(dir, "cannot write into output folder", e))
+}

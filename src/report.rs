@@ -1,0 +1,371 @@
+//! The output contract: rectified.ply, features.ply and report.json.
+//!
+//! Input: the pipeline's `Outcome` (cloud, per-point side arrays, fitted edges and corners),
+//! the settings and the stage timings. Output: three files in the output folder, each written
+//! atomically (temporary file, then rename).
+//!
+//! Field names are chosen for the viewers our users have: CloudCompare's command line loads a
+//! custom vertex property only if its name contains `scalar`, MeshLab reads `quality` and
+//! `red/green/blue` (uchar) but not custom names. `element edge` with `int vertex1, int
+//! vertex2` is what MeshLab and Open3D draw as lines.
+
+use std::path::{Path, PathBuf};
+
+use serde::Serialize;
+
+use crate::cloud::{Attribute, Column};
+use crate::config::{Precision, Settings};
+use crate::error::{Error, Result};
+use crate::io::{self, PlyWriteOptions};
+use crate::pipeline::{Outcome, Timing};
+
+/// One extracted edge as reported.
+#[derive(Debug, Clone, Serialize)]
+pub struct EdgeOut {
+    pub id: usize,
+    pub start: [f64; 3],
+    pub end: [f64; 3],
+    /// Unit direction from start to end.
+    pub direction: [f64; 3],
+    /// Number of scan points used to fit the edge.
+    pub points: usize,
+    /// RMS distance of the rectified edge points to the reported edge line.
+    pub rms: f64,
+    /// Corners at the start and end (ids into `corners`), when the edge ends at one.
+    pub corners: [Option<usize>; 2],
+    /// True for a convex edge (material inside the smaller angle), false for a concave one;
+    /// absent when not determined.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub convex: Option<bool>,
+    /// Dihedral angle between the two faces, in degrees, when fitted.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub dihedral_deg: Option<f64>,
+    /// The edge as a polyline, start to end (two points for a straight edge).
+    pub polyline: Vec<[f64; 3]>,
+    /// Rectified edge points (one per slab), not serialised in the report (features.ply has
+    /// them).
+    #[serde(skip)]
+    pub rectified: Vec<[f64; 3]>,
+    /// Fit errors summed over the slabs, per searcher.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub error: Option<FitErrors>,
+}
+
+/// Errors of a constrained fit by searcher (sum of point-to-line distances, the paper's
+/// Eq. 11/13).
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct FitErrors {
+    pub scheme1: f64,
+    pub pso: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub ga: Option<f64>,
+    pub exact: f64,
+}
+
+/// One extracted corner as reported.
+#[derive(Debug, Clone, Serialize)]
+pub struct CornerOut {
+    pub id: usize,
+    pub position: [f64; 3],
+    /// Ids of the edges that meet here.
+    pub edges: Vec<usize>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub error: Option<FitErrors>,
+}
+
+#[derive(Serialize)]
+struct Report<'a> {
+    sharpedge: &'static str,
+    input: InputReport<'a>,
+    scale: crate::features::Scale,
+    counts: Counts,
+    timings: &'a [Timing],
+    edges: &'a [EdgeOut],
+    corners: &'a [CornerOut],
+    failures: &'a [String],
+    config: &'a Settings,
+}
+
+#[derive(Serialize)]
+struct InputReport<'a> {
+    path: String,
+    format: &'a str,
+    points: usize,
+}
+
+#[derive(Serialize)]
+struct Counts {
+    points: usize,
+    candidates: usize,
+    outliers: usize,
+    runs: usize,
+    edges: usize,
+    corners: usize,
+    moved: usize,
+    failed_fits: usize,
+}
+
+/// Writes the three output files; returns their paths.
+pub fn write_all(
+    outcome: &Outcome,
+    settings: &Settings,
+    dir: &Path,
+    timings: &[Timing],
+) -> Result<Vec<PathBuf>> {
+    let precision = match settings.output.precision {
+        Precision::Float => io::Precision::F32,
+        Precision::Double => io::Precision::F64,
+        Precision::Auto => auto_precision(outcome),
+    };
+    let opts = PlyWriteOptions {
+        encoding: settings.output.encoding,
+        precision,
+    };
+    let rectified = dir.join("rectified.ply");
+    write_rectified(&rectified, outcome, &opts)?;
+    let features = dir.join("features.ply");
+    write_features(&features, outcome, &opts)?;
+    let report = dir.join("report.json");
+    write_report(&report, outcome, settings, timings)?;
+    Ok(vec![rectified, features, report])
+}
+
+/// Double coordinates when the input had them, or when float's step at the cloud's magnitude
+/// exceeds a thousandth of the spacing (float keeps 24 bits).
+fn auto_precision(outcome: &Outcome) -> io::Precision {
+    let max_abs = outcome
+        .cloud
+        .positions
+        .iter()
+        .flat_map(|p| p.iter())
+        .fold(0.0f64, |m, c| m.max(c.abs()));
+    let step = max_abs * f64::powi(2.0, -23);
+    if outcome.cloud.source.double_precision || step > 1e-3 * outcome.scale.spacing {
+        io::Precision::F64
+    } else {
+        io::Precision::F32
+    }
+}
+
+/// Names sharpedge writes per point; carried attributes with the same name are renamed
+/// `input_<name>` so both survive.
+const OWN_FIELDS: [&str; 8] = [
+    "scalar_edge_id",
+    "scalar_moved",
+    "scalar_displacement",
+    "scalar_sharpness",
+    "quality",
+    "red",
+    "green",
+    "blue",
+];
+
+fn write_rectified(path: &Path, outcome: &Outcome, opts: &PlyWriteOptions) -> Result<()> {
+    let cloud = &outcome.cloud;
+    let n = cloud.len();
+    let f = &outcome.features;
+    let label = &outcome.edge_label;
+    let moved: Vec<u8> = outcome.moved.iter().map(|&m| u8::from(m)).collect();
+    let displacement: Vec<f32> = (0..n)
+        .map(|i| {
+            let (a, b) = (cloud.positions[i], outcome.rectified[i]);
+            ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt() as f32
+        })
+        .collect();
+    let edge_id: Vec<i32> = label
+        .iter()
+        .map(|&l| if l == u32::MAX { -1 } else { l as i32 })
+        .collect();
+    let (mut red, mut green, mut blue) = (vec![0u8; n], vec![0u8; n], vec![0u8; n]);
+    for i in 0..n {
+        let c = colour(label[i]);
+        (red[i], green[i], blue[i]) = (c[0], c[1], c[2]);
+    }
+    // The normal split is the score that separates edges from faces; MeshLab shows quality.
+    let sharp: Vec<f32> = f.split.clone();
+    let own = [
+        Attribute {
+            name: "scalar_edge_id".into(),
+            values: Column::I32(edge_id),
+        },
+        Attribute {
+            name: "scalar_moved".into(),
+            values: Column::U8(moved),
+        },
+        Attribute {
+            name: "scalar_displacement".into(),
+            values: Column::F32(displacement),
+        },
+        Attribute {
+            name: "scalar_sharpness".into(),
+            values: Column::F32(sharp.clone()),
+        },
+        Attribute {
+            name: "quality".into(),
+            values: Column::F32(sharp),
+        },
+        Attribute {
+            name: "red".into(),
+            values: Column::U8(red),
+        },
+        Attribute {
+            name: "green".into(),
+            values: Column::U8(green),
+        },
+        Attribute {
+            name: "blue".into(),
+            values: Column::U8(blue),
+        },
+    ];
+    let renamed: Vec<Attribute> = cloud
+        .attributes
+        .iter()
+        .filter(|a| OWN_FIELDS.contains(&a.name.as_str()))
+        .map(|a| Attribute {
+            name: format!("input_{}", a.name),
+            values: a.values.clone(),
+        })
+        .collect();
+    let mut attrs: Vec<&Attribute> = Vec::new();
+    let mut renamed_iter = renamed.iter();
+    for a in &cloud.attributes {
+        if OWN_FIELDS.contains(&a.name.as_str()) {
+            if let Some(r) = renamed_iter.next() {
+                attrs.push(r);
+            }
+        } else {
+            attrs.push(a);
+        }
+    }
+    attrs.extend(own.iter());
+    io::write_ply(path, &outcome.rectified, &attrs, &[], opts)
+}
+
+fn write_features(path: &Path, outcome: &Outcome, opts: &PlyWriteOptions) -> Result<()> {
+    // Vertices: corners, then each edge's polyline, then its rectified edge points.
+    let mut pos: Vec<[f64; 3]> = Vec::new();
+    let mut kind: Vec<u8> = Vec::new();
+    let mut edge_id: Vec<i32> = Vec::new();
+    let mut lines: Vec<[u32; 2]> = Vec::new();
+    for c in &outcome.corners {
+        pos.push(c.position);
+        kind.push(0);
+        edge_id.push(-1);
+    }
+    for e in &outcome.edges {
+        let first = pos.len() as u32;
+        for (k, p) in e.polyline.iter().enumerate() {
+            pos.push(*p);
+            kind.push(1);
+            edge_id.push(e.id as i32);
+            if k > 0 {
+                lines.push([first + k as u32 - 1, first + k as u32]);
+            }
+        }
+    }
+    for e in &outcome.edges {
+        for p in &e.rectified {
+            pos.push(*p);
+            kind.push(2);
+            edge_id.push(e.id as i32);
+        }
+    }
+    if pos.len() > i32::MAX as usize {
+        return Err(Error::Degenerate {
+            what: "features.ply",
+            why: "more vertices than a PLY int index can address".into(),
+        });
+    }
+    let (mut red, mut green, mut blue) = (Vec::new(), Vec::new(), Vec::new());
+    for (k, &id) in kind.iter().zip(&edge_id) {
+        let c = if *k == 0 {
+            [255, 0, 0]
+        } else {
+            colour(id as u32)
+        };
+        red.push(c[0]);
+        green.push(c[1]);
+        blue.push(c[2]);
+    }
+    let attrs = [
+        Attribute {
+            name: "scalar_kind".into(),
+            values: Column::U8(kind),
+        },
+        Attribute {
+            name: "scalar_edge_id".into(),
+            values: Column::I32(edge_id),
+        },
+        Attribute {
+            name: "red".into(),
+            values: Column::U8(red),
+        },
+        Attribute {
+            name: "green".into(),
+            values: Column::U8(green),
+        },
+        Attribute {
+            name: "blue".into(),
+            values: Column::U8(blue),
+        },
+    ];
+    let refs: Vec<&Attribute> = attrs.iter().collect();
+    io::write_ply(path, &pos, &refs, &lines, opts)
+}
+
+fn write_report(
+    path: &Path,
+    outcome: &Outcome,
+    settings: &Settings,
+    timings: &[Timing],
+) -> Result<()> {
+    let f = &outcome.features;
+    let report = Report {
+        sharpedge: env!("CARGO_PKG_VERSION"),
+        input: InputReport {
+            path: outcome.cloud.source.path.display().to_string(),
+            format: &outcome.cloud.source.format,
+            points: outcome.cloud.len(),
+        },
+        scale: outcome.scale,
+        counts: Counts {
+            points: outcome.cloud.len(),
+            candidates: f.candidate.iter().filter(|&&c| c).count(),
+            outliers: f.outlier.iter().filter(|&&c| c).count(),
+            runs: outcome.segments.runs.len(),
+            edges: outcome.edges.len(),
+            corners: outcome.corners.len(),
+            moved: outcome.moved.iter().filter(|&&m| m).count(),
+            failed_fits: outcome.failures.len(),
+        },
+        timings,
+        edges: &outcome.edges,
+        corners: &outcome.corners,
+        failures: &outcome.failures,
+        config: settings,
+    };
+    io::write_atomic(path, |w| {
+        serde_json::to_writer_pretty(&mut *w, &report)
+            .map_err(|e| Error::io(path, "cannot write report", e.into()))?;
+        w.write_all(b"\n")
+            .map_err(|e| Error::io(path, "cannot write report", e))
+    })
+}
+
+/// A distinct, stable colour per edge id (golden-ratio hue steps); grey for no edge.
+pub fn colour(id: u32) -> [u8; 3] {
+    if id == u32::MAX {
+        return [170, 170, 170];
+    }
+    let h = (f64::from(id) * 0.618_033_988_749_895).fract() * 6.0;
+    let x = 1.0 - (h % 2.0 - 1.0).abs();
+    let (r, g, b) = match h as u32 {
+        0 => (1.0, x, 0.0),
+        1 => (x, 1.0, 0.0),
+        2 => (0.0, 1.0, x),
+        3 => (0.0, x, 1.0),
+        4 => (x, 0.0, 1.0),
+        _ => (1.0, 0.0, x),
+    };
+    [r, g, b].map(|c: f64| (40.0 + 215.0 * c) as u8)
+}
