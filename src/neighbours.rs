@@ -202,6 +202,71 @@ impl Grid {
         out
     }
 
+    /// Calls `f(id)` once for every point within `reach` of the segment `a`–`b` (any
+    /// `reach`, also wider than a cell), in a fixed order (cell order, then id).
+    pub fn for_each_near_segment(
+        &self,
+        a: [f64; 3],
+        b: [f64; 3],
+        reach: f64,
+        mut f: impl FnMut(u32),
+    ) {
+        let la = [0, 1, 2].map(|k| a[k] - self.origin[k]);
+        let lb = [0, 1, 2].map(|k| b[k] - self.origin[k]);
+        let ab = [lb[0] - la[0], lb[1] - la[1], lb[2] - la[2]];
+        let len2 = ab[0] * ab[0] + ab[1] * ab[1] + ab[2] * ab[2];
+        let len = len2.sqrt();
+        // Cells within `reach` of sample points half a cell apart cover the capsule.
+        let steps = (2.0 * len / self.cell).ceil() as usize + 1;
+        let span = (reach / self.cell).ceil() as i64 + 1;
+        let mut rows: Vec<(u64, i64, i64)> = Vec::new(); // (row key base, x0, x1)
+        for s in 0..=steps {
+            let u = if steps == 0 {
+                0.0
+            } else {
+                s as f64 / steps as f64
+            };
+            let q = [0, 1, 2].map(|k| la[k] + u * ab[k]);
+            let c = [0, 1, 2].map(|k| (q[k] / self.cell).floor() as i64);
+            let x0 = (c[0] - span).max(0);
+            let x1 = (c[0] + span).min(self.dims[0] as i64 - 1);
+            if x0 > x1 {
+                continue;
+            }
+            for z in (c[2] - span).max(0)..=(c[2] + span).min(self.dims[2] as i64 - 1) {
+                for y in (c[1] - span).max(0)..=(c[1] + span).min(self.dims[1] as i64 - 1) {
+                    rows.push(((z as u64 * self.dims[1] + y as u64) * self.dims[0], x0, x1));
+                }
+            }
+        }
+        // Merge the x ranges of each row so no cell is visited twice.
+        rows.sort_unstable();
+        let mut merged: Vec<(u64, i64, i64)> = Vec::with_capacity(rows.len());
+        for (row, x0, x1) in rows {
+            match merged.last_mut() {
+                Some(m) if m.0 == row && x0 <= m.2 + 1 => m.2 = m.2.max(x1),
+                _ => merged.push((row, x0, x1)),
+            }
+        }
+        let reach2 = reach * reach;
+        for (row, x0, x1) in merged {
+            let (s0, s1) = self.slots(row + x0 as u64, row + x1 as u64);
+            for s in s0..s1 {
+                let p = self.local[s];
+                let ap = [p[0] - la[0], p[1] - la[1], p[2] - la[2]];
+                let t = if len2 > 0.0 {
+                    ((ap[0] * ab[0] + ap[1] * ab[1] + ap[2] * ab[2]) / len2).clamp(0.0, 1.0)
+                } else {
+                    0.0
+                };
+                let d = [ap[0] - t * ab[0], ap[1] - t * ab[1], ap[2] - t * ab[2]];
+                if d[0] * d[0] + d[1] * d[1] + d[2] * d[2] <= reach2 {
+                    f(self.ids[s]);
+                }
+            }
+        }
+    }
+
     /// Slot range covering the cells with keys `k0..=k1` (consecutive in one x row).
     #[inline]
     fn slots(&self, k0: u64, k1: u64) -> (usize, usize) {
@@ -405,6 +470,42 @@ mod tests {
             {
                 assert_eq!(grid.within(q, r), brute_within(&pts, q, r), "r={r} q={q:?}");
             }
+        }
+    }
+
+    #[test]
+    fn segment_query_matches_brute_force() {
+        let pts = random_cloud(4000, 21, 10.0, 0.0);
+        let grid = Grid::new(&pts, 0.7).unwrap();
+        let segs = [
+            ([1.0, 1.0, 1.0], [9.0, 8.0, 7.5], 2.3),
+            ([5.0, 5.0, 5.0], [5.0, 5.0, 5.0], 1.5),
+            ([-3.0, 2.0, 4.0], [2.0, 2.0, 4.0], 0.4),
+            ([0.0, 9.5, 0.0], [10.0, 9.5, 10.0], 3.0),
+        ];
+        for (a, b, reach) in segs {
+            let mut got = Vec::new();
+            grid.for_each_near_segment(a, b, reach, |i| got.push(i));
+            let n = got.len();
+            got.sort_unstable();
+            got.dedup();
+            assert_eq!(n, got.len(), "a point was visited twice");
+            let want: Vec<u32> = (0..pts.len() as u32)
+                .filter(|&i| {
+                    let p = pts[i as usize];
+                    let ab: Vec<f64> = (0..3).map(|k| b[k] - a[k]).collect();
+                    let ap: Vec<f64> = (0..3).map(|k| p[k] - a[k]).collect();
+                    let l2: f64 = ab.iter().map(|x| x * x).sum();
+                    let t = if l2 > 0.0 {
+                        (0..3).map(|k| ab[k] * ap[k]).sum::<f64>() / l2
+                    } else {
+                        0.0
+                    };
+                    let t = t.clamp(0.0, 1.0);
+                    (0..3).map(|k| (ap[k] - t * ab[k]).powi(2)).sum::<f64>() <= reach * reach
+                })
+                .collect();
+            assert_eq!(got, want, "segment {a:?}-{b:?} reach {reach}");
         }
     }
 
