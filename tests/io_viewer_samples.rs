@@ -79,7 +79,10 @@ fn features_like() -> (Vec<[f64; 3]>, Vec<Attribute>, Vec<[u32; 2]>) {
     }
     let attrs = vec![
         attr("scalar_kind", Column::U8(vec![1; 8])),
-        attr("scalar_error", Column::F32((0..8).map(|i| i as f32 * 0.01).collect())),
+        attr(
+            "scalar_error",
+            Column::F32((0..8).map(|i| i as f32 * 0.01).collect()),
+        ),
         attr("red", Column::U8(vec![255; 8])),
         attr("green", Column::U8(vec![0; 8])),
         attr("blue", Column::U8(vec![0; 8])),
@@ -90,20 +93,40 @@ fn features_like() -> (Vec<[f64; 3]>, Vec<Attribute>, Vec<[u32; 2]>) {
 fn write_samples(dir: &Path) -> Vec<PathBuf> {
     let mut out = Vec::new();
     let cases = [
-        ("rectified_float.ply", [0.0; 3], PlyEncoding::BinaryLittleEndian, Precision::F32),
+        (
+            "rectified_float.ply",
+            [0.0; 3],
+            PlyEncoding::BinaryLittleEndian,
+            Precision::F32,
+        ),
         (
             "rectified_georef_double.ply",
             [512345.123, 4101234.567, 80.0],
             PlyEncoding::BinaryLittleEndian,
             Precision::F64,
         ),
-        ("rectified_ascii.ply", [0.0; 3], PlyEncoding::Ascii, Precision::F32),
+        (
+            "rectified_ascii.ply",
+            [0.0; 3],
+            PlyEncoding::Ascii,
+            Precision::F32,
+        ),
     ];
     for (name, offset, encoding, precision) in cases {
         let (pos, attrs) = rectified_like(offset);
         let refs: Vec<&Attribute> = attrs.iter().collect();
         let p = dir.join(name);
-        io::write_ply(&p, &pos, &refs, &[], &PlyWriteOptions { encoding, precision }).unwrap();
+        io::write_ply(
+            &p,
+            &pos,
+            &refs,
+            &[],
+            &PlyWriteOptions {
+                encoding,
+                precision,
+            },
+        )
+        .unwrap();
         out.push(p);
     }
     let (pos, attrs, edges) = features_like();
@@ -130,7 +153,10 @@ fn viewer_sample_files_read_back_with_their_fields() {
         let names: Vec<&str> = c.attributes.iter().map(|a| a.name.as_str()).collect();
         if p.ends_with("features_edges.ply") {
             assert_eq!(c.len(), 8);
-            assert_eq!(names, ["scalar_kind", "scalar_error", "red", "green", "blue"]);
+            assert_eq!(
+                names,
+                ["scalar_kind", "scalar_error", "red", "green", "blue"]
+            );
             let info = io::describe(&p).unwrap();
             assert_eq!(info.other_elements[0].count, 12);
         } else {
