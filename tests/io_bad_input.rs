@@ -348,16 +348,16 @@ fn not_a_ply_file_empty_file_and_unfinished_header() {
 /// A binary PLY with NaN at vertex 2 and infinity at vertex 4, and an id per vertex.
 fn ply_with_non_finite(dir: &Path) -> PathBuf {
     let mut f = b"ply\nformat binary_little_endian 1.0\nelement vertex 6\nproperty double x\nproperty double y\nproperty double z\nproperty int id\nend_header\n".to_vec();
-    for i in 0..6 {
+    for i in 0..6i32 {
         let y = match i {
             2 => f64::NAN,
             4 => f64::NEG_INFINITY,
             _ => 1.0,
         };
-        for c in [i as f64, y, 0.0] {
+        for c in [f64::from(i), y, 0.0] {
             f.extend_from_slice(&c.to_le_bytes());
         }
-        f.extend_from_slice(&(100 + i as i32).to_le_bytes());
+        f.extend_from_slice(&(100 + i).to_le_bytes());
     }
     write(dir, "nan.ply", &f)
 }

@@ -153,7 +153,7 @@ fn every_type(n: usize) -> Vec<Attribute> {
             "scalar_double",
             Column::F64(
                 (0..n)
-                    .map(|i| [0.1, -1e300, 5e-324, 123456789.123456789, 1e-7][i % 5])
+                    .map(|i| [0.1, -1e300, 5e-324, 123456789.12345679, 1e-7][i % 5])
                     .collect(),
             ),
         ),

@@ -1,12 +1,18 @@
 //! PLY: reading the `vertex` element of any PLY file, writing point clouds (and edge graphs).
 //!
-//! Reading uses ply-rs-bw's typed path: the header is parsed once, elements before `vertex`
-//! (faces, range grids, custom elements, with list properties) are consumed into a zero-sized
-//! element type that ignores them, and the vertices are read in chunks of [`CHUNK`] into a
-//! small fixed-size struct, then appended to typed columns. Elements after `vertex` are never
-//! read. x, y, z become f64 positions; every other vertex property becomes an [`Attribute`]
-//! with its own type and name. The generic per-vertex property maps of the crate are never
-//! used (one hash map per vertex made a 5M-point read ~25x slower).
+//! Reading parses the header with ply-rs-bw, consumes the elements before `vertex` (faces,
+//! range grids, custom elements, with list properties) through the crate's typed path into a
+//! zero-sized element type that ignores them, and never reads the elements after `vertex`.
+//! The vertices themselves are decoded
+//! * in binary files by a hand-written column decoder ([`read_binary_vertices`]): the crate's
+//!   typed path measured ~6–7x a plain read of the bytes on a 5M-point file, over the
+//!   required 6x, the decoder ~1.8x (benches/read.rs);
+//! * in ascii files by the crate's typed path (`PropertyAccess` on [`VertexRec`], read in
+//!   chunks of [`CHUNK`]).
+//!
+//! x, y, z become f64 positions; every other vertex property becomes an [`Attribute`] with
+//! its own type and name. The crate's generic per-vertex property maps are never used (one
+//! hash map per vertex made a 5M-point read ~25x slower).
 //!
 //! Writing is done by hand (the layout is trivial and the crate's writer would need a
 //! `PropertyAccess` getter call per value): a header listing `x y z` in the requested precision

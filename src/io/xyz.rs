@@ -143,6 +143,16 @@ pub(crate) fn read(path: &Path) -> Result<Loaded> {
             // Before the first point: a line of names, or a .pts point count.
             let numeric = words.iter().all(|w| w.parse::<f64>().is_ok());
             if is_cc_header || !numeric {
+                // Names may hold spaces ("Scalar field") when commas separate them.
+                let words: Vec<&str> = if content.contains([',', ';']) {
+                    content
+                        .split([',', ';'])
+                        .map(str::trim)
+                        .filter(|w| !w.is_empty())
+                        .collect()
+                } else {
+                    words
+                };
                 if words.len() < 3 {
                     return Err(Error::malformed(
                         path,

@@ -1,0 +1,242 @@
+#!/usr/bin/env python3
+"""Opens PLY files with the real CloudCompare and MeshLab (pymeshlab) and checks what they show.
+
+Usage: check_viewers.py FILE.ply...   (scripts/check_viewers.sh installs the programs first)
+
+For each file, the PLY is parsed here (ascii, binary little/big endian; vertex and edge
+elements, other elements skipped) to know what it holds, then:
+
+* CloudCompare (command line, headless with QT_QPA_PLATFORM=offscreen) loads it and exports
+  it as ASCII with a header; the export must have the same point count, every `scalar_*`
+  vertex property as a scalar field (CloudCompare shows it without the `scalar_` prefix) with
+  the file's values, the colours when the file has red/green/blue, and the coordinates.
+* MeshLab (pymeshlab) loads it; the vertex count, the coordinates, `quality` (MeshLab's
+  per-vertex scalar) and the colours must match the file, and so must the edge count when the
+  file has `element edge`.
+
+Prints what each program showed and exits 1 if anything does not match.
+"""
+
+import os
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+
+import numpy as np
+
+TYPES = {
+    "char": "i1", "int8": "i1", "uchar": "u1", "uint8": "u1",
+    "short": "i2", "int16": "i2", "ushort": "u2", "uint16": "u2",
+    "int": "i4", "int32": "i4", "uint": "u4", "uint32": "u4",
+    "float": "f4", "float32": "f4", "double": "f8", "float64": "f8",
+}
+
+
+def read_ply(path):
+    """Returns (elements, data): elements = [(name, count, [(prop, type | ('list', ct, t))])],
+    data = {element name: {prop: numpy array}} for elements without list properties."""
+    with open(path, "rb") as f:
+        raw = f.read()
+    end = raw.find(b"end_header")
+    if not raw.startswith(b"ply") or end < 0:
+        raise ValueError(f"{path}: not a PLY file")
+    body_start = raw.index(b"\n", end) + 1
+    lines = raw[:end].decode("ascii", "replace").splitlines()
+    fmt = None
+    elements = []
+    for line in lines[1:]:
+        w = line.split()
+        if not w or w[0] in ("comment", "obj_info"):
+            continue
+        if w[0] == "format":
+            fmt = w[1]
+        elif w[0] == "element":
+            elements.append((w[1], int(w[2]), []))
+        elif w[0] == "property":
+            if w[1] == "list":
+                elements[-1][2].append((w[4], ("list", w[2], w[3])))
+            else:
+                elements[-1][2].append((w[2], w[1]))
+    data = {}
+    body = raw[body_start:]
+    if fmt == "ascii":
+        tokens = body.split()
+        pos = 0
+        for name, count, props in elements:
+            cols = {p: [] for p, _ in props}
+            for _ in range(count):
+                for p, t in props:
+                    if isinstance(t, tuple):
+                        n = int(tokens[pos])
+                        pos += 1 + n
+                    else:
+                        cols[p].append(float(tokens[pos]))
+                        pos += 1
+            data[name] = {p: np.array(v, dtype=TYPES[t]) for (p, t), v
+                          in zip(props, cols.values()) if not isinstance(t, tuple)}
+    else:
+        order = "<" if fmt == "binary_little_endian" else ">"
+        pos = 0
+        for name, count, props in elements:
+            if any(isinstance(t, tuple) for _, t in props):
+                # Walk the records one by one to find where the element ends.
+                for _ in range(count):
+                    for _, t in props:
+                        if isinstance(t, tuple):
+                            ct = np.dtype(order + TYPES[t[1]])
+                            n = int(np.frombuffer(body, ct, 1, pos)[0])
+                            pos += ct.itemsize + n * np.dtype(TYPES[t[2]]).itemsize
+                        else:
+                            pos += np.dtype(TYPES[t]).itemsize
+                continue
+            dt = np.dtype([(p, order + TYPES[t]) for p, t in props])
+            arr = np.frombuffer(body, dt, count, pos)
+            pos += dt.itemsize * count
+            data[name] = {p: arr[p].astype(arr[p].dtype.newbyteorder("=")) for p, _ in props}
+    return elements, data
+
+
+def close(a, b, rel=1e-6, abs_=1e-6):
+    a = np.asarray(a, dtype=np.float64)
+    b = np.asarray(b, dtype=np.float64)
+    return a.shape == b.shape and np.allclose(a, b, rtol=rel, atol=abs_)
+
+
+def check_cloudcompare(path, vertex, problems):
+    work = tempfile.mkdtemp(prefix="cc_check_")
+    try:
+        local = os.path.join(work, os.path.basename(path))
+        shutil.copy(path, local)
+        env = dict(os.environ, QT_QPA_PLATFORM="offscreen")
+        cmd = ["CloudCompare", "-SILENT", "-NO_TIMESTAMP", "-O", "-GLOBAL_SHIFT", "AUTO",
+               local, "-C_EXPORT_FMT", "ASC", "-PREC", "12", "-SEP", "SPACE", "-ADD_HEADER",
+               "-SAVE_CLOUDS"]
+        r = subprocess.run(cmd, cwd=work, env=env, capture_output=True, text=True, timeout=300)
+        log = r.stdout + r.stderr
+        if "loaded successfully" not in log:
+            problems.append(f"CloudCompare did not load it:\n{log[-2000:]}")
+            print("  CloudCompare: FAILED to load")
+            return
+        exports = [f for f in os.listdir(work) if f.endswith(".asc")]
+        if not exports:
+            what = "it loaded a mesh (the file has faces)" if "mesh" in log.lower() else log[-500:]
+            problems.append(f"CloudCompare exported no cloud to compare: {what}")
+            print("  CloudCompare: loaded, but exported no cloud")
+            return
+        with open(os.path.join(work, exports[0])) as f:
+            header = f.readline().lstrip("/").split()
+            rows = np.loadtxt(f, ndmin=2)
+        found = re.search(r"Found one cloud with (\d+) points", log)
+        print(f"  CloudCompare: loaded, {rows.shape[0]} points"
+              + (f" (log: {found.group(1)})" if found else "")
+              + f"; fields: {' '.join(header)}")
+        n = len(vertex["x"])
+        if rows.shape[0] != n:
+            problems.append(f"CloudCompare: {rows.shape[0]} points, the file has {n}")
+            return
+        col = {name: rows[:, i] for i, name in enumerate(header)}
+        xyz_ok = all(close(col[a], vertex[a.lower()], rel=1e-9, abs_=1e-5) for a in "XYZ")
+        err = max(float(np.max(np.abs(col[a] - vertex[a.lower()]))) for a in "XYZ")
+        print(f"  CloudCompare: coordinates {'match' if xyz_ok else 'DIFFER'} "
+              f"(largest difference {err:.3g})")
+        if not xyz_ok:
+            problems.append(f"CloudCompare: coordinates differ by up to {err}")
+        for prop, values in vertex.items():
+            if "scalar" not in prop:
+                continue
+            shown = prop[len("scalar_"):] if prop.startswith("scalar_") else prop
+            name = shown if shown in col else prop if prop in col else None
+            if name is None:
+                problems.append(f"CloudCompare: scalar field of `{prop}` missing")
+                print(f"  CloudCompare: `{prop}` MISSING")
+            elif not close(col[name], values):
+                problems.append(f"CloudCompare: values of `{prop}` differ")
+                print(f"  CloudCompare: `{prop}` shown as `{name}` with DIFFERENT values")
+            else:
+                print(f"  CloudCompare: `{prop}` shown as scalar field `{name}`, values match")
+        if all(c in vertex for c in ("red", "green", "blue")):
+            ok = all(c in col for c in "RGB") and all(
+                close(col[c], vertex[name]) for c, name in zip("RGB", ("red", "green", "blue")))
+            print(f"  CloudCompare: colours {'match' if ok else 'MISSING or DIFFERENT'}")
+            if not ok:
+                problems.append("CloudCompare: colours missing or different")
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
+
+
+def check_meshlab(path, elements, vertex, edges, problems):
+    import pymeshlab
+    ms = pymeshlab.MeshSet()
+    try:
+        ms.load_new_mesh(path)
+    except Exception as e:  # pymeshlab raises its own exception type
+        problems.append(f"MeshLab did not load it: {e}")
+        print(f"  MeshLab: FAILED to load: {e}")
+        return
+    m = ms.current_mesh()
+    n = len(vertex["x"])
+    print(f"  MeshLab: loaded, {m.vertex_number()} vertices, {m.edge_number()} edges, "
+          f"{m.face_number()} faces; quality: {m.has_vertex_scalar()}, "
+          f"colour: {m.has_vertex_color()}")
+    if m.vertex_number() != n:
+        problems.append(f"MeshLab: {m.vertex_number()} vertices, the file has {n}")
+        return
+    xyz = np.stack([vertex["x"], vertex["y"], vertex["z"]], axis=1)
+    err = float(np.max(np.abs(m.vertex_matrix() - xyz))) if n else 0.0
+    print(f"  MeshLab: coordinates {'match' if err <= 1e-5 else 'DIFFER'} "
+          f"(largest difference {err:.3g})")
+    if err > 1e-5:
+        problems.append(f"MeshLab: coordinates differ by up to {err}")
+    if "quality" in vertex:
+        ok = m.has_vertex_scalar() and close(m.vertex_scalar_array(), vertex["quality"])
+        print(f"  MeshLab: quality {'matches' if ok else 'MISSING or DIFFERENT'}")
+        if not ok:
+            problems.append("MeshLab: quality missing or different")
+    if all(c in vertex for c in ("red", "green", "blue")):
+        rgb = np.stack([vertex[c] for c in ("red", "green", "blue")], axis=1) / 255.0
+        ok = m.has_vertex_color() and close(m.vertex_color_matrix()[:, :3], rgb, abs_=1e-3)
+        print(f"  MeshLab: colours {'match' if ok else 'MISSING or DIFFERENT'}")
+        if not ok:
+            problems.append("MeshLab: colours missing or different")
+    if edges is not None and m.edge_number() != edges:
+        problems.append(f"MeshLab: {m.edge_number()} edges, the file has {edges}")
+
+
+def main(paths):
+    if not paths:
+        print(__doc__)
+        return 2
+    failed = 0
+    for path in paths:
+        print(f"{path}:")
+        try:
+            elements, data = read_ply(path)
+        except Exception as e:
+            print(f"  cannot parse it here: {e}")
+            failed += 1
+            continue
+        vertex = data.get("vertex")
+        if vertex is None:
+            print("  no vertex element without lists: nothing to check")
+            failed += 1
+            continue
+        edges = next((c for name, c, _ in elements if name == "edge"), None)
+        print(f"  file: {len(vertex['x'])} vertices, properties "
+              f"{' '.join(vertex)}" + (f", {edges} edges" if edges is not None else ""))
+        problems = []
+        check_cloudcompare(path, vertex, problems)
+        check_meshlab(path, elements, vertex, edges, problems)
+        if problems:
+            failed += 1
+            for p in problems:
+                print(f"  PROBLEM: {p}")
+        else:
+            print("  OK")
+    print(f"{len(paths) - failed} of {len(paths)} files OK")
+    return 1 if failed else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
