@@ -58,10 +58,16 @@ fn info_text_on_a_written_file() {
          bbox max:    512346 4101236 81.5\n\
          size:        2 6 2.5\n\
          precision:   double (the file is more precise than float at this magnitude)\n\
-         spacing:     not computed\n",
+         spacing:     ",
         p.display()
     );
-    assert_eq!(out, want);
+    assert!(out.starts_with(&want), "{out}");
+    // Nearest distinct neighbours: 2.19373, 4.80234, 2.19373 → mean 3.06327.
+    assert!(
+        out.ends_with(" (mean nearest-neighbour distance)\n"),
+        "{out}"
+    );
+    assert!(out[want.len()..].starts_with("3.0632"), "{out}");
 }
 
 #[test]
@@ -92,7 +98,17 @@ fn info_json_on_a_written_file() {
         serde_json::json!([{"name": "edge", "count": 3}])
     );
     assert_eq!(v["double_precision"], true);
-    assert!(v["mean_spacing"].is_null());
+    let spacing = v["mean_spacing"].as_f64().expect("spacing computed");
+    let d = |a: [f64; 3], b: [f64; 3]| {
+        ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
+    };
+    let (p0, p1, p2) = (
+        [512345.25, 4101234.5, 80.0],
+        [512346.0, 4101230.0, 81.5],
+        [512344.0, 4101236.0, 79.0],
+    );
+    let want = (d(p0, p2) + d(p0, p1) + d(p2, p0)) / 3.0;
+    assert!((spacing - want).abs() < 1e-5, "{spacing} vs {want}");
 }
 
 #[test]

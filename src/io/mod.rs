@@ -275,13 +275,14 @@ impl std::fmt::Display for FileInfo {
         )?;
         match self.mean_spacing {
             Some(s) => writeln!(f, "spacing:     {s} (mean nearest-neighbour distance)"),
-            None => writeln!(f, "spacing:     not computed"),
+            None => writeln!(f, "spacing:     none (fewer than two distinct points)"),
         }
     }
 }
 
-/// Describes a file: format, point count, properties with types, bounding box. Reads the whole
-/// file (the bounding box and the non-finite count need every point).
+/// Describes a file: format, point count, properties with types, bounding box, mean spacing
+/// (estimated on up to 100,000 points). Reads the whole file (the bounding box and the
+/// non-finite count need every point).
 pub fn describe(path: &Path) -> Result<FileInfo> {
     let loaded = load(path)?;
     let cloud = &loaded.cloud;
@@ -307,7 +308,16 @@ pub fn describe(path: &Path) -> Result<FileInfo> {
         other_elements: loaded.other_elements,
         bbox,
         double_precision: cloud.source.double_precision,
-        mean_spacing: None,
+        mean_spacing: {
+            // Over finite points only; a subsample keeps `info` quick on big files.
+            let finite: Vec<[f64; 3]> = cloud
+                .positions
+                .iter()
+                .copied()
+                .filter(is_finite_point)
+                .collect();
+            crate::neighbours::mean_spacing(&finite, 100_000)
+        },
     })
 }
 
