@@ -78,6 +78,24 @@ pub enum Error {
     /// corner, all points identical for a line, a NaN in the input.
     #[error("{what}: degenerate input: {why}")]
     Degenerate { what: &'static str, why: String },
+    /// One side of a corner fit has too few points (given, or left after line propagation).
+    /// `side` is 1-based, in the caller's order.
+    #[error("{fit}: side {side} has {got} usable points, needs at least {needed}: {hint}")]
+    SideTooSmall {
+        fit: &'static str,
+        side: usize,
+        needed: usize,
+        got: usize,
+        /// What the caller can do about it.
+        hint: &'static str,
+    },
+    /// A fitting parameter is out of range (e.g. from the `[fit]` table of pipeline.toml).
+    #[error("fit parameter {name} = {value}: expected {expected}")]
+    InvalidParameter {
+        name: &'static str,
+        value: String,
+        expected: &'static str,
+    },
 }
 
 impl Error {
