@@ -71,6 +71,16 @@ pub enum Error {
     /// corner, all points identical for a line, a NaN in the input.
     #[error("{what}: degenerate input: {why}")]
     Degenerate { what: &'static str, why: String },
+
+    // ---- scan simulator (synth/) ----
+    /// A simulator parameter outside its allowed range (`name` is the field of `SynthParams`
+    /// and the CLI option without `--`, with `_` for `-`).
+    #[error("synth parameter {name} = {value}: {allowed}")]
+    SynthParam {
+        name: &'static str,
+        value: String,
+        allowed: String,
+    },
 }
 
 impl Error {
