@@ -304,7 +304,7 @@ mod tests {
             &FeatureOptions {
                 sharp_angle: 1e-6,
                 corner_angle: 30f64.to_radians(),
-                chart_angle: 1e-9,
+                chart_angle: 1e-7,
                 chart_distance: 1e-9,
             },
         )
