@@ -136,7 +136,12 @@ fn l_block_has_exactly_one_concave_edge_along_the_extrusion() {
     assert!((c.dihedral_deg - 270.0).abs() < 1e-9);
     // The extrusion depth is 0.5 of the 1.0 long profile: 50 model units.
     assert!((c.length - 50.0).abs() < 1e-9);
-    assert!(gt.edges.iter().filter(|e| e.convex).all(|e| (e.dihedral_deg - 90.0).abs() < 1e-9));
+    assert!(
+        gt.edges
+            .iter()
+            .filter(|e| e.convex)
+            .all(|e| (e.dihedral_deg - 90.0).abs() < 1e-9)
+    );
     // Its two faces are different faces; their normals are perpendicular.
     assert_ne!(c.faces[0], c.faces[1]);
     assert!(dot(c.normals[0], c.normals[1]).abs() < 1e-12);
@@ -200,7 +205,10 @@ fn clean_samples_lie_on_the_surface() {
         let scan = generate(&params(part.clone())).unwrap();
         let gt = &scan.ground_truth;
         let n = scan.cloud.len();
-        assert!((n as f64 - 20_000.0).abs() < 0.01 * 20_000.0, "{part:?}: {n} points");
+        assert!(
+            (n as f64 - 20_000.0).abs() < 0.01 * 20_000.0,
+            "{part:?}: {n} points"
+        );
         for (p, t) in scan.cloud.positions.iter().zip(&scan.truth) {
             assert_eq!(*p, t.surface);
             assert!(gt.distance_to_surface(*p) <= 1e-9 * 100.0, "{part:?}");
@@ -244,7 +252,10 @@ fn rounded_box_points_lie_on_the_rounded_box() {
         let d = box_distance(m, shrunk);
         if t.abnormal {
             moved += 1;
-            assert!((d - r).abs() < 1e-9, "moved point {m:?} at {d} from the shrunk box, r = {r}");
+            assert!(
+                (d - r).abs() < 1e-9,
+                "moved point {m:?} at {d} from the shrunk box, r = {r}"
+            );
             // The rounding moves a point by less than (√2 − 1)·r on a 90° edge, more only
             // in a corner's ball region.
             let shift = dist(*p, t.surface);
@@ -259,7 +270,10 @@ fn rounded_box_points_lie_on_the_rounded_box() {
             assert!(d >= r - 1e-9);
         }
     }
-    assert!(moved > 0 && near_corner > 0, "{moved} moved, {near_corner} near corners");
+    assert!(
+        moved > 0 && near_corner > 0,
+        "{moved} moved, {near_corner} near corners"
+    );
     assert_eq!(moved, gt.abnormal_points);
     // Every corner got a ball blend.
     assert!(gt.corners.iter().all(|c| c.ball_blend));

@@ -3,9 +3,7 @@
 //! large georeferenced offsets, and the ground truth's JSON round trip.
 
 use sharpedge::synth::geom::{V3, dist, dot, sub};
-use sharpedge::synth::{
-    GroundTruth, NN_RATIO, Part, Sampling, Scan, SynthParams, generate,
-};
+use sharpedge::synth::{GroundTruth, NN_RATIO, Part, Sampling, Scan, SynthParams, generate};
 
 fn base(part: Part, n: usize) -> SynthParams {
     SynthParams {
@@ -94,7 +92,10 @@ fn noise_has_the_requested_sigma() {
     }
     for v in sum2 {
         let sigma = (v / n).sqrt() / h;
-        assert!((sigma - 0.5).abs() < 0.01, "sigma {sigma} spacings per axis");
+        assert!(
+            (sigma - 0.5).abs() < 0.01,
+            "sigma {sigma} spacings per axis"
+        );
     }
     // Noise alone does not make a point abnormal.
     assert_eq!(s.ground_truth.abnormal_points, 0);
@@ -170,7 +171,8 @@ fn generate_with_threads(p: &SynthParams, threads: usize) -> Scan {
 
 #[test]
 fn same_seed_same_output_with_1_and_2_threads() {
-    let mesh = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data/cad/joint.off");
+    let mesh =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data/cad/joint.off");
     let mut parts = vec![Part::Step, Part::Sphere];
     if mesh.is_file() {
         parts.push(Part::Mesh(mesh));
@@ -265,7 +267,10 @@ fn ground_truth_json_round_trip() {
         // Bit-exact floats survive, and the queries agree.
         for p in s.cloud.positions.iter().step_by(97) {
             assert_eq!(back.distance_to_surface(*p), gt.distance_to_surface(*p));
-            assert_eq!(back.distance_to_nearest_edge(*p), gt.distance_to_nearest_edge(*p));
+            assert_eq!(
+                back.distance_to_nearest_edge(*p),
+                gt.distance_to_nearest_edge(*p)
+            );
             assert_eq!(back.nearest_corner(*p), gt.nearest_corner(*p));
         }
         // Through a file too.
@@ -278,13 +283,18 @@ fn ground_truth_json_round_trip() {
 
 #[test]
 fn bad_ground_truth_json_is_a_located_error() {
-    let e = GroundTruth::from_json("{\"format\": 3}").unwrap_err().to_string();
+    let e = GroundTruth::from_json("{\"format\": 3}")
+        .unwrap_err()
+        .to_string();
     assert!(
         e.starts_with("<ground-truth JSON>: line 1, column 12: not a sharpedge ground truth: "),
         "{e}"
     );
     let s = generate(&base(Part::Box, 500)).unwrap();
-    let json = s.ground_truth.to_json().replace("sharpedge-synth-truth/1", "other/9");
+    let json = s
+        .ground_truth
+        .to_json()
+        .replace("sharpedge-synth-truth/1", "other/9");
     let e = GroundTruth::from_json(&json).unwrap_err().to_string();
     assert_eq!(
         e,

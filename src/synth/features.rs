@@ -209,7 +209,11 @@ pub fn analyse(mesh: Mesh, opt: &FeatureOptions) -> Model {
         let (a, b) = (verts[key.0 as usize], verts[key.1 as usize]);
         let opp = |t: u32| {
             let tri = mesh.triangles[t as usize];
-            let o = tri.iter().copied().find(|&v| v != key.0 && v != key.1).unwrap_or(tri[0]);
+            let o = tri
+                .iter()
+                .copied()
+                .find(|&v| v != key.0 && v != key.1)
+                .unwrap_or(tri[0]);
             verts[o as usize]
         };
         let (o0, o1) = (opp(t0), opp(t1));
@@ -218,7 +222,11 @@ pub fn analyse(mesh: Mesh, opt: &FeatureOptions) -> Model {
         let dir = normalize(sub(b, a)).unwrap_or([0.0; 3]);
         let inward = |n: V3, o: V3| {
             let d = normalize(cross(n, dir)).unwrap_or([0.0; 3]);
-            if dot(d, sub(o, a)) < 0.0 { d.map(|c| -c) } else { d }
+            if dot(d, sub(o, a)) < 0.0 {
+                d.map(|c| -c)
+            } else {
+                d
+            }
         };
         sharp_index.insert(key, edges.len());
         edges.push(SharpEdge {
@@ -470,7 +478,11 @@ mod tests {
         let m = analyse(cube(), &opts());
         assert_eq!(m.edges.len(), 12);
         assert!(m.edges.iter().all(|e| e.convex));
-        assert!(m.edges.iter().all(|e| (e.dihedral_deg() - 90.0).abs() < 1e-9));
+        assert!(
+            m.edges
+                .iter()
+                .all(|e| (e.dihedral_deg() - 90.0).abs() < 1e-9)
+        );
         assert_eq!(m.corners.len(), 8);
         assert!(m.corners.iter().all(|c| c.edges.len() == 3));
         assert_eq!(m.charts.len(), 6);
@@ -552,10 +564,18 @@ mod tests {
         let dir = {
             let c = 60f64.to_radians().cos();
             let s = 60f64.to_radians().sin();
-            [c * tangent[0] - s * tangent[1], s * tangent[0] + c * tangent[1], 0.0]
+            [
+                c * tangent[0] - s * tangent[1],
+                s * tangent[0] + c * tangent[1],
+                0.0,
+            ]
         };
         for k in 1..=5 {
-            pts.push([last[0] + 0.05 * k as f64 * dir[0], last[1] + 0.05 * k as f64 * dir[1], 0.0]);
+            pts.push([
+                last[0] + 0.05 * k as f64 * dir[0],
+                last[1] + 0.05 * k as f64 * dir[1],
+                0.0,
+            ]);
         }
         let (e, ve) = chain(&pts, false);
         let c = find_corners(&e, &ve, &pts, 30f64.to_radians());

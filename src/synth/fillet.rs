@@ -192,7 +192,10 @@ fn ball_corner(m: &Model, v: u32, r: f64) -> Option<(V3, Vec<(usize, usize, usiz
         return None;
     }
     // The ball must project forwards onto every incident edge.
-    if inc.iter().any(|&e| dot(sub(c, p), dir_from(m, e, v)) <= 0.0) {
+    if inc
+        .iter()
+        .any(|&e| dot(sub(c, p), dir_from(m, e, v)) <= 0.0)
+    {
         return None;
     }
     Some((c, sectors))

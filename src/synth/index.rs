@@ -17,6 +17,8 @@ pub struct GridIndex {
     /// CSR layout: items of cell `c` are `items[starts[c]..starts[c + 1]]`.
     starts: Vec<u32>,
     items: Vec<u32>,
+    /// The primitives' boxes: a cheap lower bound that skips most exact distances.
+    boxes: Vec<(V3, V3)>,
     len: usize,
 }
 
@@ -93,6 +95,7 @@ impl GridIndex {
             dims,
             starts,
             items,
+            boxes: boxes.to_vec(),
             len: boxes.len(),
         }
     }
@@ -111,6 +114,16 @@ impl GridIndex {
                 (f as usize).min(self.dims[k] - 1)
             }
         });
+        let margin = (0..3)
+            .map(|k| {
+                let f = p[k] - (self.lo[k] + c0[k] as f64 * self.cell);
+                if (0.0..=self.cell).contains(&f) {
+                    f.min(self.cell - f)
+                } else {
+                    0.0
+                }
+            })
+            .fold(f64::INFINITY, f64::min);
         let mut best: Option<(f64, usize)> = None;
         let dims = self.dims;
         let max_ring = (0..3)
@@ -128,6 +141,12 @@ impl GridIndex {
                         let c = (x * dims[1] + y) * dims[2] + z;
                         for &id in &self.items[self.starts[c] as usize..self.starts[c + 1] as usize]
                         {
+                            let (lo, hi) = self.boxes[id as usize];
+                            let g = [0, 1, 2].map(|k| (lo[k] - p[k]).max(p[k] - hi[k]).max(0.0));
+                            let lower = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt();
+                            if best.is_some_and(|(bd, _)| lower >= bd) {
+                                continue;
+                            }
                             let d = dist(id as usize);
                             if best.is_none_or(|(bd, _)| d < bd) {
                                 best = Some((d, id as usize));
@@ -149,7 +168,9 @@ impl GridIndex {
                 }
             }
             if let Some((bd, _)) = best {
-                if bd <= ring as f64 * self.cell {
+                // Unseen primitives lie in rings > `ring`: at least `ring` whole cells plus the
+                // way from p to its own cell's nearest face (0 when p is outside the grid).
+                if bd <= ring as f64 * self.cell + margin {
                     break;
                 }
             }
@@ -168,7 +189,13 @@ mod tests {
     #[test]
     fn nearest_segment_matches_brute_force() {
         let mut rng = SmallRng::seed_from_u64(5);
-        let mut r = |s: f64| -> V3 { [rng.random::<f64>() * s, rng.random::<f64>() * s, 0.3 * rng.random::<f64>()] };
+        let mut r = |s: f64| -> V3 {
+            [
+                rng.random::<f64>() * s,
+                rng.random::<f64>() * s,
+                0.3 * rng.random::<f64>(),
+            ]
+        };
         let segs: Vec<(V3, V3)> = (0..500)
             .map(|_| {
                 let a = r(10.0);

@@ -206,12 +206,20 @@ pub fn validate(p: &SynthParams) -> Result<()> {
         if v.is_finite() && v >= 0.0 {
             Ok(())
         } else {
-            Err(bad(name, v, format!("must be a finite number >= 0 ({unit})")))
+            Err(bad(
+                name,
+                v,
+                format!("must be a finite number >= 0 ({unit})"),
+            ))
         }
     };
     if let Some(size) = p.size {
         if !(size.is_finite() && size > 0.0) {
-            return Err(bad("size", size, "must be a finite number > 0 (model units)"));
+            return Err(bad(
+                "size",
+                size,
+                "must be a finite number > 0 (model units)",
+            ));
         }
     }
     match p.sampling {
@@ -220,7 +228,11 @@ pub fn validate(p: &SynthParams) -> Result<()> {
             return Err(bad("points", n, format!("must be at most {MAX_POINTS}")));
         }
         Sampling::Spacing(h) if !(h.is_finite() && h > 0.0) => {
-            return Err(bad("spacing", h, "must be a finite number > 0 (model units)"));
+            return Err(bad(
+                "spacing",
+                h,
+                "must be a finite number > 0 (model units)",
+            ));
         }
         _ => {}
     }
@@ -228,7 +240,11 @@ pub fn validate(p: &SynthParams) -> Result<()> {
     nonneg("round", p.round, "in spacings")?;
     nonneg("edge_noise", p.edge_noise, "in spacings")?;
     if !(p.edge_band.is_finite() && p.edge_band > 0.0) {
-        return Err(bad("edge_band", p.edge_band, "must be a finite number > 0 (in spacings)"));
+        return Err(bad(
+            "edge_band",
+            p.edge_band,
+            "must be a finite number > 0 (in spacings)",
+        ));
     }
     if !(p.outliers.is_finite() && (0.0..1.0).contains(&p.outliers)) {
         return Err(bad("outliers", p.outliers, "must be a fraction in [0, 1)"));
@@ -248,12 +264,22 @@ pub fn validate(p: &SynthParams) -> Result<()> {
             return Err(bad("sides", p.sides, "a prism needs 3 to 100000 sides"));
         }
         Part::Wedge if !(p.angle.is_finite() && p.angle > 0.0 && p.angle < 180.0) => {
-            return Err(bad("angle", p.angle, "the wedge angle must be in (0, 180) degrees"));
+            return Err(bad(
+                "angle",
+                p.angle,
+                "the wedge angle must be in (0, 180) degrees",
+            ));
         }
         Part::Step if !(2..=1000).contains(&p.steps) => {
-            return Err(bad("steps", p.steps, "a stepped block needs 2 to 1000 steps"));
+            return Err(bad(
+                "steps",
+                p.steps,
+                "a stepped block needs 2 to 1000 steps",
+            ));
         }
-        Part::Mesh(_) if !(p.sharp_angle.is_finite() && p.sharp_angle > 0.0 && p.sharp_angle < 180.0) => {
+        Part::Mesh(_)
+            if !(p.sharp_angle.is_finite() && p.sharp_angle > 0.0 && p.sharp_angle < 180.0) =>
+        {
             return Err(bad(
                 "sharp_angle",
                 p.sharp_angle,
@@ -312,7 +338,7 @@ pub fn generate_from_mesh(params: &SynthParams, mesh: Mesh) -> Result<Scan> {
     scan_mesh(&p, mesh, false)
 }
 
-const TAG_ROTATION: u64 = 0x0207_A7E;
+const TAG_ROTATION: u64 = 0x0207_0A7E;
 const IDENTITY: [V3; 3] = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
 
 fn rotation(p: &SynthParams) -> [V3; 3] {
@@ -454,7 +480,14 @@ fn scan_mesh(p: &SynthParams, mut mesh: Mesh, parametric: bool) -> Result<Scan> 
         };
         total
     ];
-    sample::fill(&model, &fillets, &settings, &tiles, &mut positions, &mut truth);
+    sample::fill(
+        &model,
+        &fillets,
+        &settings,
+        &tiles,
+        &mut positions,
+        &mut truth,
+    );
 
     // Ground truth in world coordinates.
     let mut edge_polyline = vec![0usize; model.edges.len()];

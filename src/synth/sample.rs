@@ -164,8 +164,14 @@ pub fn tiles(model: &Model, s: &Settings) -> Vec<Tile> {
             for &t in &model.charts[ci].tris {
                 let q = model.mesh.triangles[t as usize]
                     .map(|v| frame.grid(model.mesh.vertices[v as usize]));
-                let (umin, umax) = (q[0][0].min(q[1][0]).min(q[2][0]), q[0][0].max(q[1][0]).max(q[2][0]));
-                let (vmin, vmax) = (q[0][1].min(q[1][1]).min(q[2][1]), q[0][1].max(q[1][1]).max(q[2][1]));
+                let (umin, umax) = (
+                    q[0][0].min(q[1][0]).min(q[2][0]),
+                    q[0][0].max(q[1][0]).max(q[2][0]),
+                );
+                let (vmin, vmax) = (
+                    q[0][1].min(q[1][1]).min(q[2][1]),
+                    q[0][1].max(q[1][1]).max(q[2][1]),
+                );
                 let (i0, i1) = node_range(umin, umax, half);
                 let (j0, j1) = node_range(vmin, vmax, half);
                 if i0 > i1 || j0 > j1 {
@@ -195,7 +201,13 @@ pub fn tiles(model: &Model, s: &Settings) -> Vec<Tile> {
 
 /// Calls `f(triangle, point on the sharp surface)` for every sample of the tile, in a fixed
 /// order.
-fn for_each_sample(model: &Model, s: &Settings, frame: &Frame, tile: &Tile, mut f: impl FnMut(u32, V3)) {
+fn for_each_sample(
+    model: &Model,
+    s: &Settings,
+    frame: &Frame,
+    tile: &Tile,
+    mut f: impl FnMut(u32, V3),
+) {
     let half = 0.5 * s.jitter;
     for &t in &tile.tris {
         let ids = model.mesh.triangles[t as usize];
@@ -252,7 +264,8 @@ fn for_each_sample(model: &Model, s: &Settings, frame: &Frame, tile: &Tile, mut 
                     continue;
                 }
                 let sum = w[0] + w[1] + w[2];
-                let pt = [0, 1, 2].map(|c| (w[0] * x[0][c] + w[1] * x[1][c] + w[2] * x[2][c]) / sum);
+                let pt =
+                    [0, 1, 2].map(|c| (w[0] * x[0][c] + w[1] * x[1][c] + w[2] * x[2][c]) / sum);
                 f(t, pt);
             }
         }
@@ -428,9 +441,10 @@ pub fn fill(
             work.push((tile, p, t));
         }
     }
-    work.into_par_iter().for_each_init(Vec::new, |cands, (tile, p, t)| {
-        fill_tile(model, fil, s, tile, p, t, cands);
-    });
+    work.into_par_iter()
+        .for_each_init(Vec::new, |cands, (tile, p, t)| {
+            fill_tile(model, fil, s, tile, p, t, cands);
+        });
 }
 
 /// Points of a Fibonacci sphere lattice for pitch `h`: one per h², like the square grid.
@@ -492,7 +506,10 @@ mod tests {
     #[test]
     fn box_distances() {
         let (lo, hi) = ([0.0; 3], [1.0; 3]);
-        assert_eq!(box_box_distance(lo, hi, [3.0, 0.0, 0.0], [4.0, 1.0, 1.0]), 2.0);
+        assert_eq!(
+            box_box_distance(lo, hi, [3.0, 0.0, 0.0], [4.0, 1.0, 1.0]),
+            2.0
+        );
         assert_eq!(box_box_distance(lo, hi, [0.5; 3], [4.0; 3]), 0.0);
     }
 

@@ -235,8 +235,7 @@ impl GroundTruth {
 
     /// Reads a ground-truth JSON file.
     pub fn read(path: &std::path::Path) -> Result<Self> {
-        let text =
-            std::fs::read_to_string(path).map_err(|e| Error::io(path, "cannot read", e))?;
+        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, "cannot read", e))?;
         Self::parse(&text, path)
     }
 
@@ -265,7 +264,10 @@ impl GroundTruth {
         } = &gt.surface
         {
             let n = vertices.len() as u64;
-            if let Some(i) = triangles.iter().position(|t| t.iter().any(|&v| v as u64 >= n)) {
+            if let Some(i) = triangles
+                .iter()
+                .position(|t| t.iter().any(|&v| v as u64 >= n))
+            {
                 return Err(Error::malformed(
                     origin,
                     format!("surface.triangles[{i}]"),
@@ -304,8 +306,11 @@ impl GroundTruth {
                 _ => None,
             };
             let edges = (self.edges.len() > BRUTE_FORCE_LIMIT).then(|| {
-                let boxes: Vec<(V3, V3)> =
-                    self.edges.iter().map(|e| bbox_of(&[e.start, e.end])).collect();
+                let boxes: Vec<(V3, V3)> = self
+                    .edges
+                    .iter()
+                    .map(|e| bbox_of(&[e.start, e.end]))
+                    .collect();
                 GridIndex::build(&boxes, 2.0)
             });
             Indexes { triangles, edges }
