@@ -14,7 +14,7 @@
 //!    to `size` and centred on the origin. Sharp edges, corners and planar charts come from
 //!    [`features`]; for parametric parts every non-coplanar mesh edge is sharp, for meshes
 //!    from files those whose normals differ by more than `sharp_angle`.
-//! 2. Each chart is sampled on a jittered square grid of pitch `h` ([`sample`]), like the
+//! 2. Each chart is sampled on a jittered square grid of pitch `h` (module `sample`), like the
 //!    regular raster of a structured-light or laser scanner. The mean nearest-neighbour
 //!    distance is [`NN_RATIO`]` · h` = 0.955 h with the default jitter 0.1 (measured on a
 //!    1M-point box: 0.953; 200k: 0.951; 5k, where the edges weigh more: 0.928; a sphere
