@@ -359,3 +359,26 @@ fn concave_fillet_adds_material() {
     }
     assert!(checked > 100, "{checked}");
 }
+
+/// Regression: with a chart tolerance of 1e-9 rad, cos() rounded to exactly 1.0 and the two
+/// triangles of a planar quad (normals equal only to the last bit) became separate faces with
+/// separate grids. Every planar face of a parametric part must be one face.
+#[test]
+fn regression_planar_quads_are_one_face_not_two() {
+    for (part, faces) in [
+        (Part::Box, 6),
+        (Part::LBlock, 8),
+        (Part::Step, 10),
+        (Part::Wedge, 5),
+        (Part::Prism, 8),
+        (Part::Pyramid, 5),
+    ] {
+        let gt = generate(&params(part.clone())).unwrap().ground_truth;
+        assert_eq!(gt.faces.len(), faces, "{part:?}");
+        // Each edge separates two different faces.
+        assert!(
+            gt.edges.iter().all(|e| e.faces[0] != e.faces[1]),
+            "{part:?}"
+        );
+    }
+}

@@ -260,7 +260,7 @@ fn ground_truth_json_round_trip() {
         })
         .unwrap();
         let gt = &s.ground_truth;
-        let json = gt.to_json();
+        let json = gt.to_json().unwrap();
         assert!(json.contains("\"format\": \"sharpedge-synth-truth/1\""));
         let back = GroundTruth::from_json(&json).unwrap();
         assert_eq!(&back, gt);
@@ -294,6 +294,7 @@ fn bad_ground_truth_json_is_a_located_error() {
     let json = s
         .ground_truth
         .to_json()
+        .unwrap()
         .replace("sharpedge-synth-truth/1", "other/9");
     let e = GroundTruth::from_json(&json).unwrap_err().to_string();
     assert_eq!(

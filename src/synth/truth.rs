@@ -223,9 +223,11 @@ impl GroundTruth {
     }
 
     /// Pretty JSON.
-    pub fn to_json(&self) -> String {
-        // Every field is plain data with finite numbers, so serialisation cannot fail.
-        serde_json::to_string_pretty(self).unwrap_or_default()
+    pub fn to_json(&self) -> Result<String> {
+        serde_json::to_string_pretty(self).map_err(|e| Error::Degenerate {
+            what: "ground-truth JSON",
+            why: e.to_string(),
+        })
     }
 
     /// Reads the JSON written by [`GroundTruth::to_json`].
