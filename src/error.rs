@@ -96,6 +96,16 @@ pub enum Error {
         value: String,
         expected: &'static str,
     },
+
+    // ---- scan simulator (synth/) ----
+    /// A simulator parameter outside its allowed range (`name` is the field of `SynthParams`
+    /// and the CLI option without `--`, with `_` for `-`).
+    #[error("synth parameter {name} = {value}: {allowed}")]
+    SynthParam {
+        name: &'static str,
+        value: String,
+        allowed: String,
+    },
 }
 
 impl Error {
