@@ -56,7 +56,7 @@ pub struct SynthArgs {
     /// Sample this triangle mesh (OFF, PLY or OBJ) instead of a parametric part.
     #[arg(long)]
     pub mesh: Option<PathBuf>,
-    /// Number of points (approximate; sampling is on a jittered grid).
+    /// Number of points (approximate; sampling is on a jittered grid). Default 100000.
     #[arg(long, conflicts_with = "spacing")]
     pub points: Option<usize>,
     /// Sampling pitch in model units (instead of --points).
@@ -71,6 +71,9 @@ pub struct SynthArgs {
     /// Extra noise sigma near sharp edges, in multiples of the spacing.
     #[arg(long, default_value_t = 0.0)]
     pub edge_noise: f64,
+    /// Width of the band around sharp edges that gets --edge-noise, in spacings.
+    #[arg(long, default_value_t = 3.0)]
+    pub edge_band: f64,
     /// Fraction of points replaced by outliers in the bounding box (0..1).
     #[arg(long, default_value_t = 0.0)]
     pub outliers: f64,
@@ -78,7 +81,12 @@ pub struct SynthArgs {
     #[arg(long)]
     pub rotate: bool,
     /// Translate the part by X,Y,Z (e.g. a georeferenced offset 512345.1,4101234.5,80).
-    #[arg(long, value_delimiter = ',', num_args = 3)]
+    #[arg(
+        long,
+        value_delimiter = ',',
+        num_args = 3,
+        allow_negative_numbers = true
+    )]
     pub translate: Option<Vec<f64>>,
     /// Random seed.
     #[arg(long, default_value_t = 1)]
@@ -89,18 +97,29 @@ pub struct SynthArgs {
     /// Write ascii PLY instead of binary little endian.
     #[arg(long)]
     pub ascii: bool,
-    /// Part size (its largest extent) in model units.
-    #[arg(long, default_value_t = 100.0)]
-    pub size: f64,
+    /// Part size (its largest extent) in model units. Default: 100 for parametric parts, the
+    /// file's own units for meshes.
+    #[arg(long)]
+    pub size: Option<f64>,
     /// Number of sides of the prism.
     #[arg(long, default_value_t = 6)]
     pub sides: usize,
     /// Dihedral angle of the wedge's sharp edge, in degrees.
     #[arg(long, default_value_t = 30.0)]
     pub angle: f64,
+    /// Number of steps of the stepped block.
+    #[arg(long, default_value_t = 3)]
+    pub steps: usize,
+    /// Grid jitter (full width per axis) in spacings, 0..1.
+    #[arg(long, default_value_t = 0.1)]
+    pub jitter: f64,
     /// For --mesh: a mesh edge is sharp when its dihedral angle exceeds this many degrees.
     #[arg(long, default_value_t = 30.0)]
     pub sharp_angle: f64,
+    /// Also write each point's truth (scalar_abnormal, scalar_outlier, scalar_edge_distance)
+    /// into the PLY, for inspection.
+    #[arg(long)]
+    pub truth_fields: bool,
     /// Output cloud (PLY).
     #[arg(short, long)]
     pub out: PathBuf,
@@ -203,8 +222,82 @@ fn summary_text(s: &sharpedge::pipeline::Summary) -> String {
     t
 }
 
-fn synth(_cli: &Cli, _a: &SynthArgs) -> anyhow::Result<()> {
-    anyhow::bail!("`synth` is being built")
+fn synth(cli: &Cli, a: &SynthArgs) -> anyhow::Result<()> {
+    use sharpedge::io::{PlyEncoding, PlyWriteOptions, Precision};
+    use sharpedge::synth::{Part, Sampling, SynthParams};
+    let part = match &a.mesh {
+        Some(m) => Part::Mesh(m.clone()),
+        None => a.part.parse::<Part>()?,
+    };
+    let sampling = match (a.points, a.spacing) {
+        (_, Some(h)) => Sampling::Spacing(h),
+        (Some(n), None) => Sampling::Points(n),
+        (None, None) => Sampling::Points(100_000),
+    };
+    let translate = match a.translate.as_deref() {
+        None => [0.0; 3],
+        Some([x, y, z]) => [*x, *y, *z],
+        Some(v) => anyhow::bail!("--translate takes three numbers X,Y,Z, got {}", v.len()),
+    };
+    let params = SynthParams {
+        part,
+        size: a.size,
+        sampling,
+        noise: a.noise,
+        round: a.round,
+        edge_noise: a.edge_noise,
+        edge_band: a.edge_band,
+        outliers: a.outliers,
+        rotate: a.rotate,
+        translate,
+        seed: a.seed,
+        double: a.double,
+        sides: a.sides,
+        angle: a.angle,
+        steps: a.steps,
+        sharp_angle: a.sharp_angle,
+        jitter: a.jitter,
+    };
+    let scan = sharpedge::synth::generate(&params)?;
+    let truth_path = a
+        .truth
+        .clone()
+        .unwrap_or_else(|| a.out.with_extension("truth.json"));
+    let extra = if a.truth_fields {
+        scan.truth_attributes()
+    } else {
+        Vec::new()
+    };
+    let attrs: Vec<&sharpedge::Attribute> =
+        scan.cloud.attributes.iter().chain(extra.iter()).collect();
+    let opts = PlyWriteOptions {
+        encoding: if a.ascii {
+            PlyEncoding::Ascii
+        } else {
+            PlyEncoding::BinaryLittleEndian
+        },
+        precision: Precision::for_source(&scan.cloud.source),
+    };
+    sharpedge::io::write_ply(&a.out, &scan.cloud.positions, &attrs, &[], &opts)?;
+    let json = scan.ground_truth.to_json()?;
+    sharpedge::io::write_atomic(&truth_path, |w| {
+        w.write_all(json.as_bytes())
+            .map_err(|e| sharpedge::Error::io(&truth_path, "cannot write ground truth", e))
+    })?;
+    if !cli.quiet {
+        let g = &scan.ground_truth;
+        eprintln!(
+            "{}: {} points of a {} (spacing {:.6}, {} sharp edges, {} corners); truth in {}",
+            a.out.display(),
+            scan.cloud.len(),
+            g.part,
+            g.spacing,
+            g.edges.len(),
+            g.corners.len(),
+            truth_path.display()
+        );
+    }
+    Ok(())
 }
 
 fn info(_cli: &Cli, a: &InfoArgs) -> anyhow::Result<()> {

@@ -16,9 +16,13 @@ use serde::de::{self, Deserializer, Visitor};
 use serde::{Deserialize, Serialize};
 use toml::Spanned;
 
+use crate::corners::CornerParams;
+use crate::edges::EdgeParams;
 use crate::error::{Error, Result};
 use crate::features::FeatureParams;
+use crate::fit::FitParams;
 use crate::io::{NonFinite, PlyEncoding};
+use crate::rectify::RectifyParams;
 use crate::segment::SegmentParams;
 
 /// A length in model units, or `"auto"`: derived from the cloud's measured spacing and noise.
@@ -74,6 +78,38 @@ struct RawConfig {
     features: RawFeatures,
     #[serde(default)]
     segment: RawSegment,
+    #[serde(default)]
+    edges: RawEdges,
+    #[serde(default)]
+    corners: RawCorners,
+    #[serde(default)]
+    rectify: RawRectify,
+    /// The fit's own serde struct (nested tables `[fit.pso]`, `[fit.propagation]`, ...);
+    /// unknown keys are refused by it, ranges checked by `FitParams::validate`.
+    #[serde(default)]
+    fit: FitParams,
+}
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawEdges {
+    band: Opt<f64>,
+    slab_points: Opt<i64>,
+    vertex_margin: Opt<f64>,
+    straight_tolerance: Opt<f64>,
+}
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawCorners {
+    reach: Opt<f64>,
+}
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawRectify {
+    enabled: Opt<bool>,
+    max_move: Opt<f64>,
 }
 
 #[derive(Debug, Default, Deserialize)]
@@ -156,6 +192,10 @@ pub struct Settings {
     pub output: OutputSettings,
     pub features: FeatureParams,
     pub segment: SegmentParams,
+    pub edges: EdgeParams,
+    pub corners: CornerParams,
+    pub rectify: RectifyParams,
+    pub fit: FitParams,
 }
 
 impl Default for Settings {
@@ -174,6 +214,10 @@ impl Default for Settings {
             },
             features: FeatureParams::default(),
             segment: SegmentParams::default(),
+            edges: EdgeParams::default(),
+            corners: CornerParams::default(),
+            rectify: RectifyParams::default(),
+            fit: FitParams::default(),
         }
     }
 }
@@ -250,6 +294,31 @@ fn line_of(text: &str, offset: usize) -> usize {
         .filter(|&&b| b == b'\n')
         .count()
         + 1
+}
+
+/// The line of `name` (e.g. `pso.w`) in the `[fit]` part of a pipeline file: under
+/// `[fit.pso]` as `w = …`, or under `[fit]` as `pso.w = …`; 0 when not found.
+fn line_of_fit_key(text: &str, name: &str) -> usize {
+    let (table, key) = match name.rsplit_once('.') {
+        Some((t, k)) => (format!("fit.{t}"), k),
+        None => ("fit".to_string(), name),
+    };
+    let mut section = String::new();
+    for (i, line) in text.lines().enumerate() {
+        let l = line.trim();
+        if let Some(h) = l.strip_prefix('[').and_then(|h| h.strip_suffix(']')) {
+            section = h.trim().to_string();
+            continue;
+        }
+        let Some((k, _)) = l.split_once('=') else {
+            continue;
+        };
+        let full = format!("{section}.{}", k.trim());
+        if full == format!("{table}.{key}") || (section == table && k.trim() == key) {
+            return i + 1;
+        }
+    }
+    0
 }
 
 struct Checker<'a> {
@@ -526,6 +595,73 @@ impl Checker<'_> {
                 false,
             )?,
         };
+        let e = &raw.edges;
+        let ed = &d.edges;
+        let edges = EdgeParams {
+            band: self.number(&e.band, "edges.band", ed.band, 0.5, 50.0, false)?,
+            slab_points: match &e.slab_points {
+                None => ed.slab_points,
+                Some(v) if (10..=100_000).contains(v.get_ref()) => *v.get_ref() as usize,
+                Some(v) => {
+                    return Err(self.err(
+                        v.span(),
+                        "edges.slab_points",
+                        format!("must be in [10, 100000], got {}", v.get_ref()),
+                    ));
+                }
+            },
+            vertex_margin: self.number(
+                &e.vertex_margin,
+                "edges.vertex_margin",
+                ed.vertex_margin,
+                0.0,
+                50.0,
+                false,
+            )?,
+            straight_tolerance: self.number(
+                &e.straight_tolerance,
+                "edges.straight_tolerance",
+                ed.straight_tolerance,
+                0.0,
+                f64::INFINITY,
+                false,
+            )?,
+        };
+        let corners = CornerParams {
+            reach: self.number(
+                &raw.corners.reach,
+                "corners.reach",
+                d.corners.reach,
+                1.0,
+                f64::INFINITY,
+                false,
+            )?,
+        };
+        let rectify = RectifyParams {
+            enabled: raw
+                .rectify
+                .enabled
+                .as_ref()
+                .map(|v| *v.get_ref())
+                .unwrap_or(d.rectify.enabled),
+            max_move: self.number(
+                &raw.rectify.max_move,
+                "rectify.max_move",
+                d.rectify.max_move,
+                0.0,
+                100.0,
+                true,
+            )?,
+        };
+        raw.fit.validate().map_err(|err| match &err {
+            Error::InvalidParameter { name, .. } => Error::Config {
+                path: self.path.to_path_buf(),
+                line: line_of_fit_key(self.text, name),
+                key: format!("fit.{name}"),
+                message: err.to_string(),
+            },
+            _ => err,
+        })?;
         Ok(Settings {
             seed,
             threads,
@@ -533,6 +669,10 @@ impl Checker<'_> {
             output,
             features,
             segment,
+            edges,
+            corners,
+            rectify,
+            fit: raw.fit,
         })
     }
 }
@@ -651,6 +791,23 @@ mod tests {
     fn syntax_error_names_the_line() {
         let e = err("seed = 1\n[features\n");
         assert!(e.starts_with("pipeline.toml:2:"), "{e}");
+    }
+
+    #[test]
+    fn fit_table_is_read_and_checked_with_its_line() {
+        let s = parse_str("[fit.pso]\nw = 0.5\niterations_2d = 30\n[edges]\nslab_points = 40\n")
+            .unwrap();
+        assert_eq!(s.fit.pso.w, 0.5);
+        assert_eq!(s.fit.pso.iterations_2d, 30);
+        assert_eq!(s.edges.slab_points, 40);
+        let e = err("seed = 1\n[fit.pso]\nc1 = 2\nw = 1.5\n");
+        assert!(e.starts_with("pipeline.toml:4: fit.pso.w: "), "{e}");
+        assert!(e.contains("1.5"), "{e}");
+        let e = err("[fit.pso]\nswarm = 3\n");
+        assert!(e.starts_with("pipeline.toml:2: fit.pso"), "{e}");
+        assert!(e.contains("swarm"), "{e}");
+        let e = err("[rectify]\nenabled = \"yes\"\n");
+        assert!(e.starts_with("pipeline.toml:2: rectify.enabled:"), "{e}");
     }
 
     #[test]

@@ -7,6 +7,8 @@
 
 pub mod cloud;
 pub mod config;
+pub mod corners;
+pub mod edges;
 pub mod error;
 pub mod experiment;
 pub mod features;
@@ -15,6 +17,7 @@ pub mod io;
 pub mod neighbours;
 pub mod pipeline;
 pub mod progress;
+pub mod rectify;
 pub mod report;
 pub mod segment;
 pub mod synth;

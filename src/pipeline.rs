@@ -10,11 +10,14 @@ use std::time::Instant;
 
 use crate::cloud::Cloud;
 use crate::config::Settings;
+use crate::corners::{self, CornerFit};
+use crate::edges;
 use crate::error::{Error, Result};
 use crate::features::{self, Features, Scale};
 use crate::io;
 use crate::neighbours::{self, Grid};
 use crate::progress::Progress;
+use crate::rectify;
 use crate::report::{self, CornerOut, EdgeOut};
 use crate::segment::{self, Segments};
 
@@ -154,10 +157,95 @@ pub fn process(cloud: Cloud, settings: &Settings, clock: &mut impl LapClock) -> 
     clock.lap("features");
     let segments = segment::segment(&cloud.positions, &features, &scale, &settings.segment);
     clock.lap("segment");
-    let (edges, corners) = rough_edges(&segments);
-    let rectified = cloud.positions.clone();
-    let moved = vec![false; cloud.len()];
-    let edge_label = segments.label.clone();
+    let fits = edges::fit_edges(
+        &cloud.positions,
+        &features.outlier,
+        &grid,
+        &segments,
+        &scale,
+        &settings.edges,
+        &settings.fit,
+        settings.seed,
+    );
+    clock.lap("edges");
+    let corner_fits = corners::fit_corners(
+        &segments,
+        &fits,
+        &scale,
+        &settings.corners,
+        &settings.fit,
+        settings.seed,
+    );
+    clock.lap("corners");
+    let mut failures: Vec<String> = Vec::new();
+    for f in &fits {
+        match f {
+            Err(e) => failures.push(e.clone()),
+            Ok(e) if e.failed_slabs > 0 => {
+                tracing::debug!(
+                    "edge {}: {} of {} slab fits failed",
+                    e.run,
+                    e.failed_slabs,
+                    e.failed_slabs + e.slabs.len()
+                );
+            }
+            Ok(_) => {}
+        }
+    }
+    // Reported corners: the fitted ones, then the vertices whose fit failed at the point
+    // their edges' lines meet (marked by an absent error).
+    let mut corner_list: Vec<CornerFit> = Vec::new();
+    let mut corner_of_vertex: Vec<Option<usize>> = vec![None; segments.vertices.len()];
+    for (v, c) in corner_fits.into_iter().enumerate() {
+        match c {
+            Ok(c) => {
+                corner_of_vertex[v] = Some(corner_list.len());
+                corner_list.push(c);
+            }
+            Err(e) => {
+                failures.push(e);
+                if let Some(p) = corners::fallback_position(&segments, &fits, v) {
+                    corner_of_vertex[v] = Some(corner_list.len());
+                    let edges: Vec<usize> = segments.vertices[v]
+                        .ends
+                        .iter()
+                        .map(|e| e.0)
+                        .filter(|&k| fits[k].is_ok())
+                        .collect();
+                    corner_list.push(CornerFit {
+                        vertex: v,
+                        position: p,
+                        scheme1: p,
+                        exact: p,
+                        errors: [f64::NAN; 3],
+                        edges,
+                    });
+                }
+            }
+        }
+    }
+    let geometry = corners::edge_geometry(&segments, &fits, &corner_list, &corner_of_vertex);
+    // Reported edge ids: the fitted runs in run order.
+    let mut edge_of_run: Vec<Option<u32>> = vec![None; fits.len()];
+    let mut next = 0u32;
+    for (k, g) in geometry.iter().enumerate() {
+        if g.is_some() {
+            edge_of_run[k] = Some(next);
+            next += 1;
+        }
+    }
+    let rect = rectify::rectify(
+        &cloud.positions,
+        &grid,
+        &fits,
+        &geometry,
+        &corner_list,
+        &edge_of_run,
+        &scale,
+        &settings.rectify,
+    );
+    clock.lap("rectify");
+    let (edges, corners) = report::describe(&fits, &geometry, &corner_list, &edge_of_run);
     Ok(Outcome {
         cloud,
         scale,
@@ -165,53 +253,11 @@ pub fn process(cloud: Cloud, settings: &Settings, clock: &mut impl LapClock) -> 
         segments,
         edges,
         corners,
-        rectified,
-        moved,
-        edge_label,
-        failures: Vec::new(),
+        rectified: rect.positions,
+        moved: rect.moved,
+        edge_label: rect.label,
+        failures,
     })
-}
-
-/// Edges straight from the runs' lines, ending at their vertices.
-fn rough_edges(segments: &Segments) -> (Vec<EdgeOut>, Vec<CornerOut>) {
-    let corners: Vec<CornerOut> = segments
-        .vertices
-        .iter()
-        .enumerate()
-        .map(|(id, v)| CornerOut {
-            id,
-            position: v.position,
-            edges: v.ends.iter().map(|e| e.0).collect(),
-            error: None,
-        })
-        .collect();
-    let edges = segments
-        .runs
-        .iter()
-        .enumerate()
-        .map(|(id, run)| {
-            let at = |t: f64| [0, 1, 2].map(|k| run.origin[k] + t * run.direction[k]);
-            let ends = [0, 1].map(|e| match run.vertices[e] {
-                Some(v) => segments.vertices[v].position,
-                None => at(run.t_range[e]),
-            });
-            EdgeOut {
-                id,
-                start: ends[0],
-                end: ends[1],
-                direction: run.direction,
-                points: run.points.len(),
-                rms: 0.0,
-                corners: run.vertices,
-                convex: None,
-                dihedral_deg: None,
-                polyline: ends.to_vec(),
-                rectified: Vec::new(),
-                error: None,
-            }
-        })
-        .collect();
-    (edges, corners)
 }
 
 /// Timing of stages; tests pass a clock that ignores them.

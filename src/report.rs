@@ -15,9 +15,12 @@ use serde::Serialize;
 
 use crate::cloud::{Attribute, Column};
 use crate::config::{Precision, Settings};
+use crate::corners::{CornerFit, EdgeGeometry};
+use crate::edges::EdgeFit;
 use crate::error::{Error, Result};
 use crate::io::{self, PlyWriteOptions};
 use crate::pipeline::{Outcome, Timing};
+use crate::segment::{norm, sub};
 
 /// One extracted edge as reported.
 #[derive(Debug, Clone, Serialize)]
@@ -66,11 +69,90 @@ pub struct FitErrors {
 #[derive(Debug, Clone, Serialize)]
 pub struct CornerOut {
     pub id: usize,
+    /// The corner: the particle swarm's constrained optimum.
     pub position: [f64; 3],
     /// Ids of the edges that meet here.
     pub edges: Vec<usize>,
+    /// Errors of the constrained 3D fit by searcher; absent when the fit failed and the
+    /// position is where the edges' lines meet.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub error: Option<FitErrors>,
+    /// The corner by Scheme 1 (best data point) and by the exact optimum, for comparison.
+    pub scheme1: [f64; 3],
+    pub exact: [f64; 3],
+}
+
+/// Turns the fits into the reported edges and corners.
+pub fn describe(
+    fits: &[Result<EdgeFit, String>],
+    geometry: &[Option<EdgeGeometry>],
+    corners: &[CornerFit],
+    edge_of_run: &[Option<u32>],
+) -> (Vec<EdgeOut>, Vec<CornerOut>) {
+    let mut edges = Vec::new();
+    for (k, g) in geometry.iter().enumerate() {
+        let (Some(g), Ok(f), Some(id)) = (g, &fits[k], edge_of_run[k]) else {
+            continue;
+        };
+        let start = g.polyline[0];
+        let end = g.polyline[g.polyline.len() - 1];
+        let d = sub(end, start);
+        let len = norm(d);
+        let direction = if len > 0.0 {
+            d.map(|x| x / len)
+        } else {
+            f.line.1
+        };
+        let rectified: Vec<[f64; 3]> = f.slabs.iter().map(|s| s.corner).collect();
+        let rms = (rectified
+            .iter()
+            .map(|p| norm(sub(*p, g.nearest(*p).0)).powi(2))
+            .sum::<f64>()
+            / rectified.len().max(1) as f64)
+            .sqrt();
+        let sum = |j: usize| f.slabs.iter().map(|s| s.errors[j]).sum::<f64>();
+        edges.push(EdgeOut {
+            id: id as usize,
+            start,
+            end,
+            direction,
+            points: f.slabs.iter().map(|s| s.points).sum(),
+            rms,
+            corners: g.corners,
+            convex: None,
+            dihedral_deg: Some(f.dihedral_deg),
+            polyline: g.polyline.clone(),
+            rectified,
+            error: Some(FitErrors {
+                scheme1: sum(0),
+                pso: sum(1),
+                ga: None,
+                exact: sum(2),
+            }),
+        });
+    }
+    let corners = corners
+        .iter()
+        .enumerate()
+        .map(|(id, c)| CornerOut {
+            id,
+            position: c.position,
+            edges: c
+                .edges
+                .iter()
+                .filter_map(|&k| edge_of_run[k].map(|e| e as usize))
+                .collect(),
+            error: c.errors[1].is_finite().then_some(FitErrors {
+                scheme1: c.errors[0],
+                pso: c.errors[1],
+                ga: None,
+                exact: c.errors[2],
+            }),
+            scheme1: c.scheme1,
+            exact: c.exact,
+        })
+        .collect();
+    (edges, corners)
 }
 
 #[derive(Serialize)]

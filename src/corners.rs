@@ -1,0 +1,241 @@
+//! Corner fit (the paper's 3D case, per vertex, in parallel) and the final edge geometry.
+//!
+//! Inputs: the `Segments` (vertices and the run ends meeting there), the `EdgeFit`s,
+//! `CornerParams`, `FitParams`, the seed. Outputs: one `CornerFit` per vertex (or why it
+//! failed) and, per edge, its final geometry: the polyline from vertex to vertex (G0: the
+//! edges of a vertex end exactly at it, no gap, no overshoot).
+//!
+//! At a vertex, each meeting edge contributes its rectified edge points (the slab corners of
+//! the edge stage, which already lie on the sharp edge, not on the rounded scan). The paper's
+//! constrained multi-line fit then searches the one point all those 3D lines pass through,
+//! with their slopes kept from the local fits (Eq. 13–14), by particle swarm; Scheme 1 and
+//! the exact optimum (a Weiszfeld-type iteration) are kept beside it.
+
+use rand::SeedableRng;
+use rand::rngs::SmallRng;
+use rayon::prelude::*;
+
+use crate::edges::EdgeFit;
+use crate::features::Scale;
+use crate::fit::{FitParams, fit_corner_3d};
+use crate::segment::{Segments, add, dot, nearest_point_to_lines, norm, sub};
+
+/// Settings of the corner stage (validated by `config`).
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct CornerParams {
+    /// Rectified edge points farther than this many neighbourhood radii from the vertex are
+    /// not used (curved edges are only locally straight).
+    pub reach: f64,
+}
+
+impl Default for CornerParams {
+    fn default() -> Self {
+        CornerParams { reach: 25.0 }
+    }
+}
+
+/// The fitted corner of one vertex.
+#[derive(Debug, Clone)]
+pub struct CornerFit {
+    pub vertex: usize,
+    /// The corner by PSO (the reported position), Scheme 1 and exactly.
+    pub position: [f64; 3],
+    pub scheme1: [f64; 3],
+    pub exact: [f64; 3],
+    /// Errors (sum of point-to-line distances) of Scheme 1, PSO and exact.
+    pub errors: [f64; 3],
+    /// The edges (run ids) that meet here.
+    pub edges: Vec<usize>,
+}
+
+/// Fits every vertex with at least two fitted edges, in parallel, each with its own RNG from
+/// (seed, vertex id).
+pub fn fit_corners(
+    segments: &Segments,
+    edges: &[Result<EdgeFit, String>],
+    scale: &Scale,
+    params: &CornerParams,
+    fit: &FitParams,
+    seed: u64,
+) -> Vec<Result<CornerFit, String>> {
+    let mut fit = fit.clone();
+    // Rectified edge points scatter far less than the raw points: the fit measures their
+    // noise itself instead of taking the cloud's.
+    fit.propagation.noise = None;
+    (0..segments.vertices.len())
+        .into_par_iter()
+        .map(|v| {
+            let mut rng = SmallRng::seed_from_u64(
+                seed.rotate_left(17) ^ (v as u64).wrapping_mul(0xD1B5_4A32_D192_ED03),
+            );
+            fit_vertex(segments, edges, v, scale, params, &fit, &mut rng)
+        })
+        .collect()
+}
+
+fn fit_vertex(
+    segments: &Segments,
+    edges: &[Result<EdgeFit, String>],
+    v: usize,
+    scale: &Scale,
+    params: &CornerParams,
+    fit: &FitParams,
+    rng: &mut SmallRng,
+) -> Result<CornerFit, String> {
+    let vertex = &segments.vertices[v];
+    let approx = vertex.position;
+    let reach = params.reach * scale.radius;
+    let mut sides: Vec<Vec<[f64; 3]>> = Vec::new();
+    let mut ids: Vec<usize> = Vec::new();
+    for &(run, _) in &vertex.ends {
+        let Ok(edge) = &edges[run] else { continue };
+        let pts: Vec<[f64; 3]> = edge
+            .slabs
+            .iter()
+            .map(|s| s.corner)
+            .filter(|p| norm(sub(*p, approx)) <= reach)
+            .collect();
+        if pts.len() >= 3 {
+            sides.push(pts);
+            ids.push(run);
+        }
+    }
+    if sides.len() < 2 {
+        return Err(format!(
+            "corner {v}: {} of its {} edges have enough rectified points near it",
+            sides.len(),
+            vertex.ends.len()
+        ));
+    }
+    let refs: Vec<&[[f64; 3]]> = sides.iter().map(|s| s.as_slice()).collect();
+    let f = fit_corner_3d(&refs, approx, fit, rng).map_err(|e| format!("corner {v}: {e}"))?;
+    Ok(CornerFit {
+        vertex: v,
+        position: f.pso.point,
+        scheme1: f.scheme1.point,
+        exact: f.exact.point,
+        errors: [f.scheme1.error, f.pso.error, f.exact.error],
+        edges: ids,
+    })
+}
+
+/// The final shape of one edge: its polyline from start to end, ending exactly at its
+/// corners.
+#[derive(Debug, Clone)]
+pub struct EdgeGeometry {
+    pub run: usize,
+    pub polyline: Vec<[f64; 3]>,
+    /// Corner ids (into the fitted corners) at the start and end.
+    pub corners: [Option<usize>; 2],
+}
+
+impl EdgeGeometry {
+    /// The point of the polyline nearest to `p`, and the unit direction of that piece.
+    pub fn nearest(&self, p: [f64; 3]) -> ([f64; 3], [f64; 3]) {
+        let mut best = (f64::INFINITY, self.polyline[0], [1.0, 0.0, 0.0]);
+        for w in self.polyline.windows(2) {
+            let d = sub(w[1], w[0]);
+            let len2 = dot(d, d);
+            if len2 <= 0.0 {
+                continue;
+            }
+            let t = (dot(sub(p, w[0]), d) / len2).clamp(0.0, 1.0);
+            let q = add(w[0], d.map(|x| x * t));
+            let dist = norm(sub(p, q));
+            if dist < best.0 {
+                best = (dist, q, d.map(|x| x / len2.sqrt()));
+            }
+        }
+        (best.1, best.2)
+    }
+}
+
+/// Builds each fitted edge's final polyline: a straight edge is its line through its corners
+/// (from corner to corner, or from a corner along the fitted direction to the last rectified
+/// point), a curving edge the smoothed rectified points with the corners as end points.
+/// `corner_of_vertex[v]` is the fitted corner id of vertex v, if it was fitted.
+pub fn edge_geometry(
+    segments: &Segments,
+    edges: &[Result<EdgeFit, String>],
+    corners: &[CornerFit],
+    corner_of_vertex: &[Option<usize>],
+) -> Vec<Option<EdgeGeometry>> {
+    edges
+        .iter()
+        .enumerate()
+        .map(|(k, e)| {
+            let e = e.as_ref().ok()?;
+            let run = &segments.runs[k];
+            let ends = [0, 1].map(|j| {
+                let v = run.vertices[j]?;
+                let c = corner_of_vertex[v]?;
+                corners[c].edges.contains(&k).then_some(c)
+            });
+            let (o, d) = e.line;
+            let t_of = |p: [f64; 3]| dot(sub(p, o), d);
+            let first = e.slabs.first().map(|s| s.corner).unwrap_or(o);
+            let last = e.slabs.last().map(|s| s.corner).unwrap_or(o);
+            let polyline = if e.straight {
+                let at = |t: f64| add(o, d.map(|x| x * t));
+                match ends {
+                    [Some(a), Some(b)] => vec![corners[a].position, corners[b].position],
+                    [Some(a), None] => {
+                        let p = corners[a].position;
+                        vec![p, add(p, d.map(|x| x * (t_of(last) - t_of(p))))]
+                    }
+                    [None, Some(b)] => {
+                        let p = corners[b].position;
+                        vec![add(p, d.map(|x| x * (t_of(first) - t_of(p)))), p]
+                    }
+                    [None, None] => vec![at(t_of(first)), at(t_of(last))],
+                }
+            } else {
+                let mut pts = smooth(&e.slabs.iter().map(|s| s.corner).collect::<Vec<_>>(), 2);
+                if let Some(a) = ends[0] {
+                    pts.insert(0, corners[a].position);
+                }
+                if let Some(b) = ends[1] {
+                    pts.push(corners[b].position);
+                }
+                pts
+            };
+            Some(EdgeGeometry {
+                run: k,
+                polyline,
+                corners: ends,
+            })
+        })
+        .collect()
+}
+
+/// Moving average over ±`half` neighbours (shorter windows at the ends).
+fn smooth(pts: &[[f64; 3]], half: usize) -> Vec<[f64; 3]> {
+    (0..pts.len())
+        .map(|i| {
+            let lo = i.saturating_sub(half);
+            let hi = (i + half + 1).min(pts.len());
+            let mut s = [0.0; 3];
+            for p in &pts[lo..hi] {
+                s = add(s, *p);
+            }
+            s.map(|x| x / (hi - lo) as f64)
+        })
+        .collect()
+}
+
+/// Where the fitted edges' lines meet, for a vertex whose corner fit failed: the
+/// least-squares point of the lines.
+pub fn fallback_position(
+    segments: &Segments,
+    edges: &[Result<EdgeFit, String>],
+    v: usize,
+) -> Option<[f64; 3]> {
+    let lines: Vec<([f64; 3], [f64; 3])> = segments.vertices[v]
+        .ends
+        .iter()
+        .filter_map(|&(k, _)| edges[k].as_ref().ok().map(|e| e.line))
+        .collect();
+    (lines.len() >= 2)
+        .then(|| nearest_point_to_lines(&lines))
+        .flatten()
+}

@@ -1,0 +1,259 @@
+//! Rectification: points of the abnormal zones move onto the fitted sharp geometry; every
+//! other point keeps its coordinates bit for bit.
+//!
+//! Inputs: positions, the `EdgeFit`s (their slabs' abnormal zones and face traces), the final
+//! `EdgeGeometry`, the fitted corners and their edges, `Scale`, `RectifyParams`. Outputs: the
+//! rectified positions (a copy of the input where nothing moved), a moved flag and an edge
+//! label per point.
+//!
+//! Along an edge, an abnormal point (between C and D of its slab) moves within its profile
+//! plane onto the nearer of the two face traces leaving the final edge (the paper's L1 and
+//! L3): the edge position comes from the whole edge's fit, so the rectified points do not
+//! inherit one slab's noise. Near a corner, where slabs stop, points as close to one of the
+//! corner's edges as that edge's abnormal zone reaches move onto the nearest face plane of
+//! the corner.
+
+use crate::corners::{CornerFit, EdgeGeometry};
+use crate::edges::EdgeFit;
+use crate::features::Scale;
+use crate::neighbours::Grid;
+use crate::segment::{add, dot, norm, sub};
+
+/// Settings of the rectify stage (validated by `config`).
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct RectifyParams {
+    /// Move the abnormal zones (false: report the geometry, leave every point as read).
+    pub enabled: bool,
+    /// A point never moves farther than this many neighbourhood radii (a guard against a
+    /// bad fit dragging points across the part).
+    pub max_move: f64,
+}
+
+impl Default for RectifyParams {
+    fn default() -> Self {
+        RectifyParams {
+            enabled: true,
+            max_move: 1.0,
+        }
+    }
+}
+
+/// Rectified positions, moved flags and edge labels.
+pub struct Rectified {
+    pub positions: Vec<[f64; 3]>,
+    pub moved: Vec<bool>,
+    pub label: Vec<u32>,
+}
+
+/// Moves each abnormal point onto the nearer constrained face trace of its edge (and of its
+/// corner near vertices). `geometry[k]` is edge k's final shape; `edge_of_run` maps run ids
+/// to reported edge ids.
+#[allow(clippy::too_many_arguments)]
+pub fn rectify(
+    positions: &[[f64; 3]],
+    grid: &Grid,
+    edges: &[Result<EdgeFit, String>],
+    geometry: &[Option<EdgeGeometry>],
+    corners: &[CornerFit],
+    edge_of_run: &[Option<u32>],
+    scale: &Scale,
+    params: &RectifyParams,
+) -> Rectified {
+    let mut out = Rectified {
+        positions: positions.to_vec(),
+        moved: vec![false; positions.len()],
+        label: vec![u32::MAX; positions.len()],
+    };
+    let max_move = params.max_move * scale.radius;
+    // Mean face traces per edge: a straight edge's faces are the same along it, and the mean
+    // over slabs is far steadier than one slab's local fit.
+    let mut faces_of: Vec<Option<[[f64; 3]; 2]>> = vec![None; edges.len()];
+    let mut reach_of: Vec<f64> = vec![0.0; edges.len()];
+    for (k, e) in edges.iter().enumerate() {
+        let (Ok(e), Some(g)) = (e, &geometry[k]) else {
+            continue;
+        };
+        let Some(id) = edge_of_run[k] else { continue };
+        faces_of[k] = mean_faces(e);
+        let mut reaches: Vec<f64> = e.slabs.iter().map(|s| s.abnormal_reach).collect();
+        let mid = reaches.len() / 2;
+        reach_of[k] = if reaches.is_empty() {
+            0.0
+        } else {
+            *reaches.select_nth_unstable_by(mid, f64::total_cmp).1
+        };
+        for s in &e.slabs {
+            let faces = if e.straight {
+                faces_of[k].unwrap_or(s.faces)
+            } else {
+                s.faces
+            };
+            for &i in &s.abnormal {
+                let i = i as usize;
+                out.label[i] = id;
+                if !params.enabled {
+                    continue;
+                }
+                let p = positions[i];
+                let (c, d) = g.nearest(p);
+                let faces = faces.map(|f| orthogonalise(f, d));
+                let q = onto_traces(p, c, d, &faces);
+                if norm(sub(q, p)) <= max_move {
+                    out.positions[i] = q;
+                    out.moved[i] = true;
+                }
+            }
+        }
+    }
+    // Corners: the zone the slabs left out around each vertex.
+    for c in corners {
+        let incident: Vec<usize> = c
+            .edges
+            .iter()
+            .copied()
+            .filter(|&k| geometry[k].is_some() && faces_of[k].is_some())
+            .collect();
+        let zone = incident.iter().map(|&k| reach_of[k]).fold(0.0, f64::max);
+        let radius = 2.5 * scale.radius + zone;
+        let mut planes: Vec<([f64; 3], [f64; 3])> = Vec::new(); // (point, unit normal)
+        for &k in &incident {
+            let (Some(g), Some(faces)) = (&geometry[k], faces_of[k]) else {
+                continue;
+            };
+            let (_, d) = g.nearest(c.position);
+            for f in faces {
+                let f = orthogonalise(f, d);
+                let n = cross(d, f);
+                let l = norm(n);
+                if l > 1e-9 {
+                    planes.push((c.position, n.map(|x| x / l)));
+                }
+            }
+        }
+        if planes.is_empty() {
+            continue;
+        }
+        for i in grid_ball(grid, c.position, radius) {
+            let i = i as usize;
+            if out.moved[i] {
+                continue;
+            }
+            let p = positions[i];
+            // Abnormal: within the abnormal reach of one of the corner's edges.
+            let near = incident.iter().find(|&&k| {
+                let (Some(g), r) = (&geometry[k], reach_of[k]) else {
+                    return false;
+                };
+                norm(sub(p, g.nearest(p).0)) <= r
+            });
+            let Some(&k) = near else { continue };
+            if let Some(id) = edge_of_run[k] {
+                out.label[i] = id;
+            }
+            if !params.enabled {
+                continue;
+            }
+            let (dist, n) = planes
+                .iter()
+                .map(|(o, n)| (dot(sub(p, *o), *n), *n))
+                .min_by(|a, b| a.0.abs().total_cmp(&b.0.abs()))
+                .unwrap_or((0.0, [0.0; 3]));
+            if dist.abs() <= max_move {
+                out.positions[i] = sub(p, n.map(|x| x * dist));
+                out.moved[i] = true;
+            }
+        }
+    }
+    out
+}
+
+/// Points within `r` of `q` (any r), by id.
+fn grid_ball(grid: &Grid, q: [f64; 3], r: f64) -> Vec<u32> {
+    let mut v = Vec::new();
+    grid.for_each_near_segment(q, q, r, |i| v.push(i));
+    v.sort_unstable();
+    v
+}
+
+/// The mean of the slabs' face traces (each trace's two faces in a consistent order).
+fn mean_faces(e: &EdgeFit) -> Option<[[f64; 3]; 2]> {
+    let first = e.slabs.first()?.faces;
+    let mut acc = [[0.0; 3]; 2];
+    for s in &e.slabs {
+        // Match the slab's faces to the first slab's.
+        let swap = dot(s.faces[0], first[0]) + dot(s.faces[1], first[1])
+            < dot(s.faces[0], first[1]) + dot(s.faces[1], first[0]);
+        let f = if swap {
+            [s.faces[1], s.faces[0]]
+        } else {
+            s.faces
+        };
+        acc[0] = add(acc[0], f[0]);
+        acc[1] = add(acc[1], f[1]);
+    }
+    let out = acc.map(|f| {
+        let l = norm(f);
+        f.map(|x| x / l)
+    });
+    out.iter()
+        .all(|f| f.iter().all(|x| x.is_finite()))
+        .then_some(out)
+}
+
+/// `f` without its component along unit `d`, normalised (falls back to `f`).
+fn orthogonalise(f: [f64; 3], d: [f64; 3]) -> [f64; 3] {
+    let g = sub(f, d.map(|x| x * dot(f, d)));
+    let l = norm(g);
+    if l > 1e-9 { g.map(|x| x / l) } else { f }
+}
+
+/// `p` moved within the plane perpendicular to `d` at edge point `c` onto the nearer of the
+/// two half-lines c + s·faces[j], s ≥ 0; its position along the edge is kept.
+pub fn onto_traces(p: [f64; 3], c: [f64; 3], d: [f64; 3], faces: &[[f64; 3]; 2]) -> [f64; 3] {
+    let v = sub(p, c);
+    let along = dot(v, d);
+    let perp = sub(v, d.map(|x| x * along));
+    let best = faces
+        .iter()
+        .map(|f| {
+            let s = dot(perp, *f).max(0.0);
+            let q = f.map(|x| x * s);
+            (norm(sub(perp, q)), q)
+        })
+        .min_by(|a, b| a.0.total_cmp(&b.0))
+        .map(|x| x.1)
+        .unwrap_or(perp);
+    add(c, add(d.map(|x| x * along), best))
+}
+
+fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn onto_traces_moves_within_the_profile_plane_to_the_nearer_face() {
+        let c = [0.0, 0.0, 0.0];
+        let d = [0.0, 0.0, 1.0];
+        let faces = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
+        // Near face 0 (x axis): drop y, keep z.
+        assert_eq!(onto_traces([3.0, 0.4, 7.0], c, d, &faces), [3.0, 0.0, 7.0]);
+        // Near face 1.
+        assert_eq!(
+            onto_traces([0.2, 2.0, -1.0], c, d, &faces),
+            [0.0, 2.0, -1.0]
+        );
+        // Behind the corner (outside both half-lines): onto the corner line itself.
+        assert_eq!(
+            onto_traces([-1.0, -1.0, 5.0], c, d, &faces),
+            [0.0, 0.0, 5.0]
+        );
+    }
+}
