@@ -185,7 +185,13 @@ pub fn segment(
                 let (a, b) = (cl[w.min(cl.len() - 1)], cl[(w + 1).min(cl.len() - 1)]);
                 grid.for_each_near_segment(a, b, reach, |j| {
                     let j = j as usize;
-                    if dot(dirs[j], run.direction).abs() >= cos_dir {
+                    // Only beside the run, never beyond its ends: there lie corner regions and
+                    // the other edges' bands.
+                    let t = dot(sub(cand_pos[j], run.origin), run.direction);
+                    if t >= run.t_range[0]
+                        && t <= run.t_range[1]
+                        && dot(dirs[j], run.direction).abs() >= cos_dir
+                    {
                         taken[j] = true;
                     }
                 });
@@ -703,7 +709,9 @@ mod tests {
                 );
                 assert!(
                     best.2 > 0.999,
-                    "run direction off by {}",
+                    "sigma {sigma}: run of {} points, length {:.2}, direction off by {}",
+                    run.points.len(),
+                    run.t_range[1] - run.t_range[0],
                     best.2.acos().to_degrees()
                 );
                 hit[best.0] += 1;
