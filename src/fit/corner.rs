@@ -171,14 +171,30 @@ pub fn prepare_corner_3d(
             why: format!("the approximate vertex {approx:?} is not finite"),
         });
     }
+    // Canonical side order, from quantities that do not change under rotation, translation or
+    // scaling: point count, then the mean distance from the approximate vertex. Everything
+    // that sums over sides runs in this order, so permuting the sides changes no bit.
+    let mut sq = vec![0.0; k];
+    let mut mean_r = vec![0.0; k];
+    for (j, side) in sides.iter().enumerate() {
+        for p in side.iter() {
+            let d2 = norm2(&sub(p, &approx));
+            sq[j] += d2;
+            mean_r[j] += d2.sqrt();
+        }
+        mean_r[j] /= side.len() as f64;
+    }
+    s.canon.clear();
+    s.canon.extend(0..k);
+    s.canon.sort_by(|&a, &b| {
+        sides[a]
+            .len()
+            .cmp(&sides[b].len())
+            .then(mean_r[a].total_cmp(&mean_r[b]))
+            .then(a.cmp(&b))
+    });
     let total: usize = sides.iter().map(|s| s.len()).sum();
-    let rms = (sides
-        .iter()
-        .flat_map(|s| s.iter())
-        .map(|p| norm2(&sub(p, &approx)))
-        .sum::<f64>()
-        / total as f64)
-        .sqrt();
+    let rms = (s.canon.iter().map(|&j| sq[j]).sum::<f64>() / total as f64).sqrt();
     if !(rms > 0.0) || !rms.is_finite() {
         return Err(Error::Degenerate {
             what: WHAT,
@@ -202,7 +218,6 @@ pub fn prepare_corner_3d(
     s.order.resize_with(k, Vec::new);
     s.t.clear();
     s.t.resize(loc.len(), 0.0);
-    let mut mean_r = vec![0.0; k];
     let mut prior = Vec::with_capacity(k);
     for j in 0..k {
         let r = s.start[j]..s.start[j + 1];
@@ -233,21 +248,7 @@ pub fn prepare_corner_3d(
         o.extend(r.clone());
         let t = &s.t;
         o.sort_by(|&a, &b| t[b].total_cmp(&t[a]).then(a.cmp(&b)));
-        mean_r[j] = r
-            .clone()
-            .map(|g| loc[g].iter().map(|x| x * x).sum::<f64>().sqrt())
-            .sum::<f64>()
-            / r.len() as f64;
     }
-    // Canonical side order: by count, then mean distance from the approximate vertex.
-    s.canon.clear();
-    s.canon.extend(0..k);
-    s.canon.sort_by(|&a, &b| {
-        (s.start[a + 1] - s.start[a])
-            .cmp(&(s.start[b + 1] - s.start[b]))
-            .then(mean_r[a].total_cmp(&mean_r[b]))
-            .then(a.cmp(&b))
-    });
 
     let sigma = match params.propagation.noise {
         Some(sg) => sg / frame.unit,

@@ -315,9 +315,13 @@ pub fn prepare_profile_2d(
     let sigma = sigma.max(1e-12);
 
     // 2. Propagation (§2.1) along the profile read as one polyline, A = far end of arm 1 ...
-    // apex ... B = far end of arm 2, from both ends, as in the paper's Figure 3: each
-    // propagation runs towards and, until the turn is detected, past the corner, so the points
-    // between the two stops C and D surround the corner.
+    // corner ... B = far end of arm 2, from both ends (the paper's Figure 3). Each run goes
+    // towards the corner and, until it sees the turn, past it; where the two runs overlap, the
+    // points both accepted surround the corner and go to the corner region, so the side fits
+    // only use points that clearly belong to one side. A run that never sees the turn (an
+    // obtuse corner in strong noise) is stopped halfway down the other arm, so it cannot
+    // swallow the other side.
+    let j = s.arm[0].len();
     s.poly.clear();
     s.poly.extend_from_slice(&s.arm[0]);
     s.poly.extend(s.arm[1].iter().rev());
@@ -330,16 +334,17 @@ pub fn prepare_profile_2d(
         sigma,
         &params.propagation,
         Some(arm_line[0].direction),
-    );
+    )
+    .min(j + (m - j) / 2);
     let b = propagate_run(
         loc,
         &s.rev,
         sigma,
         &params.propagation,
         Some(arm_line[1].direction),
-    );
-    // Side 1 = poly[..s1_end], side 2 = poly[s2_start..]; if the two runs crossed, the points
-    // both accepted go to the corner region.
+    )
+    .min(m - j + j / 2);
+    // Side 1 = poly[..s1_end], side 2 = poly[s2_start..].
     let (s1_end, s2_start) = (a.min(m - b), a.max(m - b));
     for (k, got) in [(0, s1_end), (1, m - s2_start)] {
         if got < min_side {
@@ -356,7 +361,7 @@ pub fn prepare_profile_2d(
     out.sides[0].clear();
     out.sides[0].extend_from_slice(&s.poly[..s1_end]);
     out.sides[1].clear();
-    out.sides[1].extend(s.poly[s2_start..].iter().rev());
+    out.sides[1].extend_from_slice(&s.rev[..m - s2_start]);
     out.c = s.poly[s1_end - 1];
     out.d = s.poly[s2_start];
     out.corner_region.clear();
