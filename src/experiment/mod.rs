@@ -23,8 +23,8 @@ use serde_json::json;
 
 use crate::Result;
 use crate::fit::{
-    self, CornerFit, CornerScratch, FitParams, GaScratch, JointSlopes, Objective, Problem,
-    ProfileFit, ProfileScratch, Search, SwarmScratch,
+    self, CornerFit, CornerScratch, FitParams, GaScratch, Objective, Problem, ProfileFit,
+    ProfileScratch, Search, SwarmScratch,
 };
 use crate::progress::Progress;
 use data::TrialParams;
@@ -232,22 +232,8 @@ fn search_all<const D: usize, O: Objective<D>>(
     let ex = exact()?;
     time.exact = micros(t);
     // Joint refinement: the same swarm on the objective with slopes re-fitted through q.
-    let mut joint_obj = JointSlopes::<D>::default();
-    for side in p.assigned {
-        joint_obj.add_side(side.iter().map(|&i| &p.points[i]));
-    }
     let t = Instant::now();
-    let joint = fit::pso(
-        &joint_obj,
-        p.candidates,
-        &p.basis,
-        p.scale,
-        &params.pso,
-        iterations,
-        rngs.2,
-        &mut SwarmScratch::default(),
-        &mut Vec::new(),
-    );
+    let (joint, _) = fit::refine_joint(p, &params.pso, iterations, rngs.2);
     time.joint = micros(t);
     Ok(Searched {
         s1,

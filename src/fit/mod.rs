@@ -64,6 +64,7 @@ pub mod problem;
 pub mod profile;
 pub mod propagate;
 pub mod pso;
+pub mod refine;
 pub mod scheme1;
 mod vec;
 
@@ -82,6 +83,7 @@ pub use problem::{Frame, Problem};
 pub use profile::{ProfileFit, ProfileScratch, prepare_profile_2d, solve_profile_2d};
 pub use propagate::{PolylineSplit, PropagationParams, propagate_polyline, propagate_run};
 pub use pso::{PsoParams, Search, SwarmScratch, converged_at, pso};
+pub use refine::refine_joint;
 pub use scheme1::scheme1;
 
 use crate::Result;
