@@ -207,7 +207,7 @@ fn degenerate_corners_are_clear_errors() {
         .to_string();
     assert!(e.contains("parallel"), "{e}");
     // Coincident points on a side.
-    let same = vec![[1.0, 1.0, 1.0]; 5];
+    let same = [[1.0, 1.0, 1.0]; 5];
     let e = fit_corner_3d(&[&good[0][..], &same[..]], [0.0; 3], &p, rng)
         .unwrap_err()
         .to_string();

@@ -11,6 +11,7 @@ use sharpedge::fit::{
 
 /// An unordered profile: two sides of `n` points (spacing `h`) leaving `corner` at angles
 /// `a1`, `a2` (degrees), Gaussian noise `sigma`, a fillet of radius `round`, shuffled.
+#[allow(clippy::too_many_arguments)]
 fn profile(
     corner: [f64; 2],
     a1: f64,

@@ -114,9 +114,9 @@ proptest! {
 
     #[test]
     fn profile_corner_moves_with_rotation_translation_and_scale(
-        angle in 50.0f64..160.0, turn in 0.0f64..6.28, n in 15usize..45,
+        angle in 50.0f64..160.0, turn in 0.0f64..std::f64::consts::TAU, n in 15usize..45,
         sigma in 0.005f64..0.1, round in 0.0f64..0.6, seed in 0u64..1000,
-        theta in 0.0f64..6.28, tx in -1e4f64..1e4, ty in -1e4f64..1e4, log_s in -3.0f64..3.0,
+        theta in 0.0f64..std::f64::consts::TAU, tx in -1e4f64..1e4, ty in -1e4f64..1e4, log_s in -3.0f64..3.0,
     ) {
         let pts = vee(angle, turn, n, sigma, round, seed);
         let approx = [0.1, -0.05];
@@ -138,7 +138,7 @@ proptest! {
 
     #[test]
     fn profile_fit_ignores_the_input_order(
-        angle in 50.0f64..160.0, turn in 0.0f64..6.28, n in 15usize..45,
+        angle in 50.0f64..160.0, turn in 0.0f64..std::f64::consts::TAU, n in 15usize..45,
         sigma in 0.005f64..0.1, seed in 0u64..1000,
     ) {
         let pts = vee(angle, turn, n, sigma, 0.2, seed);
@@ -158,7 +158,7 @@ proptest! {
 
     #[test]
     fn certificate_order_holds_and_outputs_are_finite(
-        angle in 50.0f64..160.0, turn in 0.0f64..6.28, n in 8usize..45,
+        angle in 50.0f64..160.0, turn in 0.0f64..std::f64::consts::TAU, n in 8usize..45,
         sigma in 0.0f64..0.3, round in 0.0f64..1.0, seed in 0u64..1000,
     ) {
         let pts = vee(angle, turn, n, sigma, round, seed);

@@ -193,12 +193,11 @@ fn search_all<const D: usize, O: Objective<D>>(
 ) -> Result<Searched<D>> {
     let mut time = PerMethod::default();
     let t = Instant::now();
-    let (_, s1) =
-        fit::scheme1(p.objective, p.candidates).ok_or_else(|| crate::Error::TooFewPoints {
-            what: "experiment: corner candidates",
-            needed: 1,
-            got: 0,
-        })?;
+    let (_, s1) = fit::scheme1(p.objective, p.candidates).ok_or(crate::Error::TooFewPoints {
+        what: "experiment: corner candidates",
+        needed: 1,
+        got: 0,
+    })?;
     time.scheme1 = micros(t);
     let mut pso_hist = Vec::with_capacity(iterations + 1);
     let t = Instant::now();

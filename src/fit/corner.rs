@@ -195,7 +195,7 @@ pub fn prepare_corner_3d(
     });
     let total: usize = sides.iter().map(|s| s.len()).sum();
     let rms = (s.canon.iter().map(|&j| sq[j]).sum::<f64>() / total as f64).sqrt();
-    if !(rms > 0.0) || !rms.is_finite() {
+    if !rms.is_finite() || rms <= 0.0 {
         return Err(Error::Degenerate {
             what: WHAT,
             why: "all points coincide with the approximate vertex".into(),
@@ -410,7 +410,7 @@ pub fn solve_corner_3d<R: Rng + ?Sized>(
             why: "no prepared problem; call prepare_corner_3d first".into(),
         });
     };
-    let (ci, s1) = scheme1(&s.obj, &s.cand).ok_or_else(|| Error::TooFewPoints {
+    let (ci, s1) = scheme1(&s.obj, &s.cand).ok_or(Error::TooFewPoints {
         what: "3D corner fit: corner candidates",
         needed: 1,
         got: 0,

@@ -301,14 +301,11 @@ impl<const D: usize> Objective<D> for JointSlopes<D> {
         let mut total = 0.0;
         for j in 0..self.sums.len() {
             let pts = &self.pts[self.starts[j]..self.starts[j + 1]];
-            match self.direction_at(j, q) {
-                Some(d) => {
-                    for p in pts {
-                        total += norm(&reject(&sub(p, q), &d));
-                    }
+            // No direction means all points are at q: zero distance to any line through q.
+            if let Some(d) = self.direction_at(j, q) {
+                for p in pts {
+                    total += norm(&reject(&sub(p, q), &d));
                 }
-                // All points at q: zero distance to any line through q.
-                None => {}
             }
         }
         total

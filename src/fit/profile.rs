@@ -174,7 +174,7 @@ pub fn prepare_profile_2d(
         .sum::<f64>()
         / n as f64)
         .sqrt();
-    if !(rms > 0.0) || !rms.is_finite() {
+    if !rms.is_finite() || rms <= 0.0 {
         return Err(Error::Degenerate {
             what: WHAT,
             why: "all points coincide with the approximate corner".into(),
@@ -291,13 +291,12 @@ pub fn prepare_profile_2d(
     }
     s.t.clear();
     s.t.resize(n, 0.0);
-    for k in 0..2 {
-        let d = arm_line[k].direction;
-        for &i in &s.arm[k] {
-            s.t[i] = dot(&loc[i], &d);
+    for (arm, line) in s.arm.iter_mut().zip(&arm_line) {
+        for &i in arm.iter() {
+            s.t[i] = dot(&loc[i], &line.direction);
         }
         let t = &s.t;
-        s.arm[k].sort_by(|&a, &b| t[b].total_cmp(&t[a]).then(a.cmp(&b)));
+        arm.sort_by(|&a, &b| t[b].total_cmp(&t[a]).then(a.cmp(&b)));
     }
 
     // Noise: far halves of the arms against their own lines.
@@ -426,9 +425,9 @@ pub fn prepare_profile_2d(
         }
     }
     s.obj.clear();
-    for k in 0..2 {
+    for (line, assigned) in local.iter().zip(&s.assigned) {
         s.obj
-            .add_line(&local[k].direction, s.assigned[k].iter().map(|&i| &loc[i]));
+            .add_line(&line.direction, assigned.iter().map(|&i| &loc[i]));
     }
 
     out.local = [
@@ -466,7 +465,7 @@ pub fn solve_profile_2d<R: Rng + ?Sized>(
             why: "no prepared problem; call prepare_profile_2d first".into(),
         });
     };
-    let (ci, s1) = scheme1(&s.obj, &s.cand).ok_or_else(|| Error::TooFewPoints {
+    let (ci, s1) = scheme1(&s.obj, &s.cand).ok_or(Error::TooFewPoints {
         what: "2D profile fit: corner candidates",
         needed: 1,
         got: 0,

@@ -215,7 +215,7 @@ pub fn side_fit<const D: usize>(
     buf.clear();
     buf.extend(idx.iter().map(|&i| pts[i]));
     let line = super::line::fit_line_form(buf, form)?;
-    if trim <= 0.0 || !(sigma > 0.0) {
+    if trim <= 0.0 || sigma.is_nan() || sigma <= 0.0 {
         return Ok(line);
     }
     let before = buf.len();
