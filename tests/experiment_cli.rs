@@ -214,6 +214,13 @@ fn bad_options_are_refused_with_a_reason() {
     let o = run(&["--rounding=9", "--trials", "1"]);
     assert!(!o.status.success());
     assert!(String::from_utf8_lossy(&o.stderr).contains("--rounding: must be between 0 and 5"));
+    let o = run(&["--min-particles", "0", "--trials", "1"]);
+    assert!(!o.status.success());
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        e.contains("fit parameter min_particles = 0: expected at least 1"),
+        "{e}"
+    );
     // --out pointing at an existing file.
     let dir = tempfile::TempDir::new().unwrap();
     let file = dir.path().join("a_file");

@@ -95,6 +95,10 @@ pub struct CornerScratch {
     assigned: Vec<Vec<usize>>,
     flag: Vec<bool>,
     tmp: Vec<usize>,
+    sq: Vec<f64>,
+    mean_r: Vec<f64>,
+    prior: Vec<[f64; 3]>,
+    accepted: Vec<usize>,
     local: Vec<Line3>,
     obj: FixedSlopes3,
     swarm: SwarmScratch<3>,
@@ -174,16 +178,19 @@ pub fn prepare_corner_3d(
     // Canonical side order, from quantities that do not change under rotation, translation or
     // scaling: point count, then the mean distance from the approximate vertex. Everything
     // that sums over sides runs in this order, so permuting the sides changes no bit.
-    let mut sq = vec![0.0; k];
-    let mut mean_r = vec![0.0; k];
+    s.sq.clear();
+    s.sq.resize(k, 0.0);
+    s.mean_r.clear();
+    s.mean_r.resize(k, 0.0);
     for (j, side) in sides.iter().enumerate() {
         for p in side.iter() {
             let d2 = norm2(&sub(p, &approx));
-            sq[j] += d2;
-            mean_r[j] += d2.sqrt();
+            s.sq[j] += d2;
+            s.mean_r[j] += d2.sqrt();
         }
-        mean_r[j] /= side.len() as f64;
+        s.mean_r[j] /= side.len() as f64;
     }
+    let mean_r = &s.mean_r;
     s.canon.clear();
     s.canon.extend(0..k);
     s.canon.sort_by(|&a, &b| {
@@ -194,7 +201,7 @@ pub fn prepare_corner_3d(
             .then(a.cmp(&b))
     });
     let total: usize = sides.iter().map(|s| s.len()).sum();
-    let rms = (s.canon.iter().map(|&j| sq[j]).sum::<f64>() / total as f64).sqrt();
+    let rms = (s.canon.iter().map(|&j| s.sq[j]).sum::<f64>() / total as f64).sqrt();
     if !rms.is_finite() || rms <= 0.0 {
         return Err(Error::Degenerate {
             what: WHAT,
@@ -218,7 +225,7 @@ pub fn prepare_corner_3d(
     s.order.resize_with(k, Vec::new);
     s.t.clear();
     s.t.resize(loc.len(), 0.0);
-    let mut prior = Vec::with_capacity(k);
+    s.prior.clear();
     for j in 0..k {
         let r = s.start[j]..s.start[j + 1];
         let mut acc = LineAcc::default();
@@ -239,7 +246,7 @@ pub fn prepare_corner_3d(
             });
         };
         let d = line.oriented(&centroid).direction;
-        prior.push(d);
+        s.prior.push(d);
         for g in r.clone() {
             s.t[g] = dot(&loc[g], &d);
         }
@@ -269,10 +276,12 @@ pub fn prepare_corner_3d(
     s.local.clear();
     out.corner_region.clear();
     s.cand_idx.clear();
-    let mut accepted = vec![0usize; k];
+    s.accepted.clear();
+    s.accepted.resize(k, 0);
+    let accepted = &mut s.accepted;
     for j in 0..k {
         let o = &s.order[j];
-        accepted[j] = propagate_run(loc, o, sigma, &params.propagation, Some(prior[j]));
+        accepted[j] = propagate_run(loc, o, sigma, &params.propagation, Some(s.prior[j]));
         if accepted[j] < min_side {
             return Err(Error::SideTooSmall {
                 fit: WHAT,
