@@ -121,7 +121,7 @@ pub struct Summary {
     pub exact_violations: f64,
     /// mean(GA error) / mean(PSO error) − 1.
     pub ga_vs_pso: f64,
-    /// Share of trials where GA's error is within 1 % of PSO's... and where PSO <= GA.
+    /// Share of trials where PSO's error is <= GA's.
     pub pso_le_ga: f64,
     /// Mean iterations to converge.
     pub converged_pso: f64,

@@ -179,7 +179,13 @@ pub fn pso<const D: usize, O: Objective<D> + ?Sized, R: Rng + ?Sized>(
                 s.best[i] = q;
             }
         }
-        g = argmin(&s.best_err);
+        // The swarm's best changes only on a real improvement, so its error never rises (with
+        // the rounding margin, a fresh argmin could pick a hair-worse particle).
+        for i in 0..n {
+            if better(s.best_err[i], s.best_err[g]) {
+                g = i;
+            }
+        }
         history.push(s.best_err[g]);
     }
     Search {
