@@ -139,6 +139,7 @@ pub struct ExperimentReport {
     pub trials: usize,
     pub seed: u64,
     pub params: FitParams,
+    pub abnormality: data::Abnormality,
     pub records: Vec<TrialRecord>,
     pub example: Option<Example>,
     pub summary: Summary,
@@ -418,6 +419,7 @@ pub fn run(cfg: &ExperimentConfig, progress: &Progress) -> Result<ExperimentRepo
         trials: cfg.trials,
         seed: cfg.seed,
         params: cfg.params.clone(),
+        abnormality: cfg.abnormality,
         records,
         example,
         summary,
@@ -566,6 +568,8 @@ impl ExperimentReport {
             "dim": self.dim,
             "trials": self.trials,
             "seed": self.seed,
+            "rounding": self.abnormality.rounding,
+            "min_particles": self.params.min_particles,
             "ok": s.ok,
             "failed": s.failed,
             "failures": self.records.iter().filter_map(|r| r.failure.as_ref().map(|f| json!({"trial": r.index, "error": f}))).collect::<Vec<_>>(),
@@ -611,7 +615,7 @@ impl ExperimentReport {
         let _ = writeln!(
             o,
             "{}D: {} trials (seed {}), {} fitted, {} failed; PSO w = {}, c1 = {}, c2 = {}, \
-             r ~ U[0, {}], {} iterations, {:.1} particles on average",
+             r ~ U[0, {}], {} iterations, {:.1} particles on average{}",
             self.dim,
             self.trials,
             self.seed,
@@ -622,7 +626,12 @@ impl ExperimentReport {
             p.c2,
             p.r_max,
             it,
-            s.mean_particles
+            s.mean_particles,
+            if self.abnormality.rounding > 0.0 {
+                format!("; corners rounded up to {}", self.abnormality.rounding)
+            } else {
+                String::new()
+            }
         );
         let _ = writeln!(
             o,

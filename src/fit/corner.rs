@@ -108,7 +108,7 @@ pub struct CornerScratch {
 
 impl CornerScratch {
     /// The search problem prepared by the last successful [`prepare_corner_3d`]. Its lines
-    /// and axes are in the canonical side order.
+    /// (and `assigned`) are in the canonical side order.
     pub fn problem(&self) -> Option<Problem<'_, 3, FixedSlopes3>> {
         Some(Problem {
             objective: &self.obj,

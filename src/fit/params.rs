@@ -52,7 +52,7 @@ pub struct FitParams {
     /// experiment's 2D data, 5 particles got within 1 % of the exact minimum in 75 % of the
     /// trials, 10 in 97 %, 20 in 100 %.
     pub min_particles: usize,
-    /// Most particles (the ones nearest the approximate corner are kept); `None` = no cap,
+    /// Most particles (the ones nearest the corner region's centre are kept); `None` = no cap,
     /// as in the paper (one particle per corner-region point).
     pub max_particles: Option<usize>,
     /// Side points farther than `trim` · σ from the first local fit are left out of a second

@@ -12,8 +12,10 @@
 //!    the far end A of arm 1 through the corner to the far end B of arm 2; propagate (§2.1)
 //!    from A and from B. The accepted points are the sides (A..C, D..B), the points between C
 //!    and D the corner region (if the two runs crossed, the points both accepted).
-//! 3. Fit L2 and L4 to the sides; build the constrained objective (§2); search the corner with
-//!    Scheme 1, PSO and exactly; rectify the corner-region points onto the constrained lines.
+//! 3. Fit L2 and L4 to the sides; build the constrained objective (§2) with every point scored
+//!    against its side's line (corner-region points against the nearer one); search the corner
+//!    with Scheme 1, PSO (in a frame whose first axis runs along the bisector towards the tip)
+//!    and exactly; rectify the corner-region points onto the constrained half-lines.
 //!
 //! Input: points, approximate corner, [`FitParams`], an RNG. Output: a [`ProfileFit`].
 
@@ -43,7 +45,7 @@ pub struct ProfileFit {
     /// to rectify.
     pub corner_region: Vec<usize>,
     /// Indices of the PSO's starting particles and Scheme 1's candidates: the corner region,
-    /// C and D, grown to `min_particles` with the points nearest the approximate corner.
+    /// C and D, grown to `min_particles` with the points nearest to their centre.
     pub candidates: Vec<usize>,
     /// Index of C (the last point accepted from side 1) and of D (from side 2).
     pub c: usize,
