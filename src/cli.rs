@@ -151,6 +151,12 @@ pub struct ExperimentArgs {
     /// Write SVG figures (convergence, PSO vs GA, one fit) into this folder.
     #[arg(long)]
     pub out: Option<PathBuf>,
+    /// PSO / GA iterations (default: the paper's 20 in 2D, 10 in 3D).
+    #[arg(long)]
+    pub iterations: Option<usize>,
+    /// Fewest particles (the corner region is grown to this many data points; default 20).
+    #[arg(long)]
+    pub min_particles: Option<usize>,
     /// Round the generated corners with a fillet (2D) or blunting (3D) of up to this size
     /// (the sides are 10 long). Not in the paper's data; a stress test of the search.
     #[arg(long, default_value_t = 0.0)]
@@ -343,11 +349,19 @@ fn experiment(cli: &Cli, a: &ExperimentArgs) -> anyhow::Result<()> {
             let stage = if dim == 2 { "2D trials" } else { "3D trials" };
             sharpedge::progress::Progress::start(stage, a.trials as u64, "trials")
         };
+        let mut params = sharpedge::fit::FitParams::default();
+        if let Some(n) = a.iterations {
+            params.pso.iterations_2d = n;
+            params.pso.iterations_3d = n;
+        }
+        if let Some(n) = a.min_particles {
+            params.min_particles = n;
+        }
         let cfg = ExperimentConfig {
             dim,
             trials: a.trials,
             seed: a.seed,
-            params: sharpedge::fit::FitParams::default(),
+            params,
             abnormality: sharpedge::experiment::data::Abnormality {
                 rounding: a.rounding,
             },

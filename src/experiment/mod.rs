@@ -23,8 +23,8 @@ use serde_json::json;
 
 use crate::Result;
 use crate::fit::{
-    self, CornerFit, CornerScratch, FitParams, GaScratch, JointSlopes, Objective, Problem,
-    ProfileFit, ProfileScratch, Search, SwarmScratch,
+    self, CornerFit, CornerScratch, FitParams, GaScratch, Objective, Problem, ProfileFit,
+    ProfileScratch, Search, SwarmScratch,
 };
 use crate::progress::Progress;
 use data::TrialParams;
@@ -121,7 +121,7 @@ pub struct Summary {
     pub exact_violations: f64,
     /// mean(GA error) / mean(PSO error) − 1.
     pub ga_vs_pso: f64,
-    /// Share of trials where GA's error is within 1 % of PSO's... and where PSO <= GA.
+    /// Share of trials where PSO's error is <= GA's.
     pub pso_le_ga: f64,
     /// Mean iterations to converge.
     pub converged_pso: f64,
@@ -139,6 +139,7 @@ pub struct ExperimentReport {
     pub trials: usize,
     pub seed: u64,
     pub params: FitParams,
+    pub abnormality: data::Abnormality,
     pub records: Vec<TrialRecord>,
     pub example: Option<Example>,
     pub summary: Summary,
@@ -193,12 +194,11 @@ fn search_all<const D: usize, O: Objective<D>>(
 ) -> Result<Searched<D>> {
     let mut time = PerMethod::default();
     let t = Instant::now();
-    let (_, s1) =
-        fit::scheme1(p.objective, p.candidates).ok_or_else(|| crate::Error::TooFewPoints {
-            what: "experiment: corner candidates",
-            needed: 1,
-            got: 0,
-        })?;
+    let (_, s1) = fit::scheme1(p.objective, p.candidates).ok_or(crate::Error::TooFewPoints {
+        what: "experiment: corner candidates",
+        needed: 1,
+        got: 0,
+    })?;
     time.scheme1 = micros(t);
     let mut pso_hist = Vec::with_capacity(iterations + 1);
     let t = Instant::now();
@@ -232,22 +232,8 @@ fn search_all<const D: usize, O: Objective<D>>(
     let ex = exact()?;
     time.exact = micros(t);
     // Joint refinement: the same swarm on the objective with slopes re-fitted through q.
-    let mut joint_obj = JointSlopes::<D>::default();
-    for side in p.assigned {
-        joint_obj.add_side(side.iter().map(|&i| &p.points[i]));
-    }
     let t = Instant::now();
-    let joint = fit::pso(
-        &joint_obj,
-        p.candidates,
-        &p.basis,
-        p.scale,
-        &params.pso,
-        iterations,
-        rngs.2,
-        &mut SwarmScratch::default(),
-        &mut Vec::new(),
-    );
+    let (joint, _) = fit::refine_joint(p, &params.pso, iterations, rngs.2);
     time.joint = micros(t);
     Ok(Searched {
         s1,
@@ -433,6 +419,7 @@ pub fn run(cfg: &ExperimentConfig, progress: &Progress) -> Result<ExperimentRepo
         trials: cfg.trials,
         seed: cfg.seed,
         params: cfg.params.clone(),
+        abnormality: cfg.abnormality,
         records,
         example,
         summary,
@@ -581,6 +568,8 @@ impl ExperimentReport {
             "dim": self.dim,
             "trials": self.trials,
             "seed": self.seed,
+            "rounding": self.abnormality.rounding,
+            "min_particles": self.params.min_particles,
             "ok": s.ok,
             "failed": s.failed,
             "failures": self.records.iter().filter_map(|r| r.failure.as_ref().map(|f| json!({"trial": r.index, "error": f}))).collect::<Vec<_>>(),
@@ -626,7 +615,7 @@ impl ExperimentReport {
         let _ = writeln!(
             o,
             "{}D: {} trials (seed {}), {} fitted, {} failed; PSO w = {}, c1 = {}, c2 = {}, \
-             r ~ U[0, {}], {} iterations, {:.1} particles on average",
+             r ~ U[0, {}], {} iterations, {:.1} particles on average{}",
             self.dim,
             self.trials,
             self.seed,
@@ -637,7 +626,12 @@ impl ExperimentReport {
             p.c2,
             p.r_max,
             it,
-            s.mean_particles
+            s.mean_particles,
+            if self.abnormality.rounding > 0.0 {
+                format!("; corners rounded up to {}", self.abnormality.rounding)
+            } else {
+                String::new()
+            }
         );
         let _ = writeln!(
             o,

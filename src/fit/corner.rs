@@ -95,6 +95,10 @@ pub struct CornerScratch {
     assigned: Vec<Vec<usize>>,
     flag: Vec<bool>,
     tmp: Vec<usize>,
+    sq: Vec<f64>,
+    mean_r: Vec<f64>,
+    prior: Vec<[f64; 3]>,
+    accepted: Vec<usize>,
     local: Vec<Line3>,
     obj: FixedSlopes3,
     swarm: SwarmScratch<3>,
@@ -104,7 +108,7 @@ pub struct CornerScratch {
 
 impl CornerScratch {
     /// The search problem prepared by the last successful [`prepare_corner_3d`]. Its lines
-    /// and axes are in the canonical side order.
+    /// (and `assigned`) are in the canonical side order.
     pub fn problem(&self) -> Option<Problem<'_, 3, FixedSlopes3>> {
         Some(Problem {
             objective: &self.obj,
@@ -171,15 +175,34 @@ pub fn prepare_corner_3d(
             why: format!("the approximate vertex {approx:?} is not finite"),
         });
     }
+    // Canonical side order, from quantities that do not change under rotation, translation or
+    // scaling: point count, then the mean distance from the approximate vertex. Everything
+    // that sums over sides runs in this order, so permuting the sides changes no bit.
+    s.sq.clear();
+    s.sq.resize(k, 0.0);
+    s.mean_r.clear();
+    s.mean_r.resize(k, 0.0);
+    for (j, side) in sides.iter().enumerate() {
+        for p in side.iter() {
+            let d2 = norm2(&sub(p, &approx));
+            s.sq[j] += d2;
+            s.mean_r[j] += d2.sqrt();
+        }
+        s.mean_r[j] /= side.len() as f64;
+    }
+    let mean_r = &s.mean_r;
+    s.canon.clear();
+    s.canon.extend(0..k);
+    s.canon.sort_by(|&a, &b| {
+        sides[a]
+            .len()
+            .cmp(&sides[b].len())
+            .then(mean_r[a].total_cmp(&mean_r[b]))
+            .then(a.cmp(&b))
+    });
     let total: usize = sides.iter().map(|s| s.len()).sum();
-    let rms = (sides
-        .iter()
-        .flat_map(|s| s.iter())
-        .map(|p| norm2(&sub(p, &approx)))
-        .sum::<f64>()
-        / total as f64)
-        .sqrt();
-    if !(rms > 0.0) || !rms.is_finite() {
+    let rms = (s.canon.iter().map(|&j| s.sq[j]).sum::<f64>() / total as f64).sqrt();
+    if !rms.is_finite() || rms <= 0.0 {
         return Err(Error::Degenerate {
             what: WHAT,
             why: "all points coincide with the approximate vertex".into(),
@@ -202,8 +225,7 @@ pub fn prepare_corner_3d(
     s.order.resize_with(k, Vec::new);
     s.t.clear();
     s.t.resize(loc.len(), 0.0);
-    let mut mean_r = vec![0.0; k];
-    let mut prior = Vec::with_capacity(k);
+    s.prior.clear();
     for j in 0..k {
         let r = s.start[j]..s.start[j + 1];
         let mut acc = LineAcc::default();
@@ -224,7 +246,7 @@ pub fn prepare_corner_3d(
             });
         };
         let d = line.oriented(&centroid).direction;
-        prior.push(d);
+        s.prior.push(d);
         for g in r.clone() {
             s.t[g] = dot(&loc[g], &d);
         }
@@ -233,21 +255,7 @@ pub fn prepare_corner_3d(
         o.extend(r.clone());
         let t = &s.t;
         o.sort_by(|&a, &b| t[b].total_cmp(&t[a]).then(a.cmp(&b)));
-        mean_r[j] = r
-            .clone()
-            .map(|g| loc[g].iter().map(|x| x * x).sum::<f64>().sqrt())
-            .sum::<f64>()
-            / r.len() as f64;
     }
-    // Canonical side order: by count, then mean distance from the approximate vertex.
-    s.canon.clear();
-    s.canon.extend(0..k);
-    s.canon.sort_by(|&a, &b| {
-        (s.start[a + 1] - s.start[a])
-            .cmp(&(s.start[b + 1] - s.start[b]))
-            .then(mean_r[a].total_cmp(&mean_r[b]))
-            .then(a.cmp(&b))
-    });
 
     let sigma = match params.propagation.noise {
         Some(sg) => sg / frame.unit,
@@ -268,10 +276,12 @@ pub fn prepare_corner_3d(
     s.local.clear();
     out.corner_region.clear();
     s.cand_idx.clear();
-    let mut accepted = vec![0usize; k];
+    s.accepted.clear();
+    s.accepted.resize(k, 0);
+    let accepted = &mut s.accepted;
     for j in 0..k {
         let o = &s.order[j];
-        accepted[j] = propagate_run(loc, o, sigma, &params.propagation, Some(prior[j]));
+        accepted[j] = propagate_run(loc, o, sigma, &params.propagation, Some(s.prior[j]));
         if accepted[j] < min_side {
             return Err(Error::SideTooSmall {
                 fit: WHAT,
@@ -409,7 +419,7 @@ pub fn solve_corner_3d<R: Rng + ?Sized>(
             why: "no prepared problem; call prepare_corner_3d first".into(),
         });
     };
-    let (ci, s1) = scheme1(&s.obj, &s.cand).ok_or_else(|| Error::TooFewPoints {
+    let (ci, s1) = scheme1(&s.obj, &s.cand).ok_or(Error::TooFewPoints {
         what: "3D corner fit: corner candidates",
         needed: 1,
         got: 0,

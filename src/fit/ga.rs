@@ -16,7 +16,7 @@ use rand::{Rng, RngExt};
 use serde::{Deserialize, Serialize};
 
 use super::objective::Objective;
-use super::pso::{Search, argmin, converged_at, from_basis, to_basis};
+use super::pso::{Search, argmin, better, converged_at, from_basis, to_basis};
 
 /// GA parameters.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -128,7 +128,7 @@ pub fn ga<const D: usize, O: Objective<D> + ?Sized, R: Rng + ?Sized>(
         std::mem::swap(&mut s.pop, &mut s.kids);
         std::mem::swap(&mut s.err, &mut s.kid_err);
         b = argmin(&s.err);
-        if s.err[b] < best_err {
+        if better(s.err[b], best_err) {
             best = s.pop[b];
             best_err = s.err[b];
         }

@@ -150,7 +150,7 @@ impl<const D: usize> LineAcc<D> {
             return None;
         }
         let (vals, vecs) = sym_eigen(&self.scatter());
-        if !(vals[0] > 0.0) || !finite(&vecs[0]) {
+        if vals[0].is_nan() || vals[0] <= 0.0 || !finite(&vecs[0]) {
             return None;
         }
         Some((
@@ -412,7 +412,7 @@ fn regress<const D: usize>(pts: &[[f64; D]], u: usize, v: usize) -> Option<(f64,
         suv += d[u] * d[v];
         total += dot(&d, &d);
     }
-    if !(suu > 1e-24 * total) || total == 0.0 {
+    if suu.is_nan() || suu <= 1e-24 * total || total == 0.0 {
         return None;
     }
     let a = suv / suu;

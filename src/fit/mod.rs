@@ -7,52 +7,74 @@
 //! # The two calls the pipeline makes
 //!
 //! ```text
-//! fit_profile_2d(points: &[[f64; 2]], approx_corner: [f64; 2], params: &FitParams,
-//!                rng: &mut impl Rng) -> Result<ProfileFit>
-//! fit_corner_3d(sides: &[&[[f64; 3]]], approx: [f64; 3], params: &FitParams,
-//!               rng: &mut impl Rng) -> Result<CornerFit>
+//! fit_profile_2d<R: Rng + ?Sized>(points: &[[f64; 2]], approx_corner: [f64; 2],
+//!                params: &FitParams, rng: &mut R) -> Result<ProfileFit>
+//! fit_profile_2d_with(points, approx_corner, params, rng,
+//!                     scratch: &mut ProfileScratch, out: &mut ProfileFit) -> Result<()>
+//! fit_corner_3d<R: Rng + ?Sized>(sides: &[&[[f64; 3]]], approx: [f64; 3],
+//!               params: &FitParams, rng: &mut R) -> Result<CornerFit>
+//! fit_corner_3d_with(sides, approx, params, rng,
+//!                    scratch: &mut CornerScratch, out: &mut CornerFit) -> Result<()>
 //! ```
 //!
 //! - [`fit_profile_2d`] (paper §2.1, §3.1; one call per edge slab): an *unordered* 2D profile —
 //!   two point arms meeting at a corner (V, L, obtuse, convex or concave) with a noisy or
-//!   rounded abnormal zone — and the approximate corner (within the abnormal zone). Returns a
-//!   [`ProfileFit`]: the side sets (`sides`, far end first), the corner region between C and D
-//!   (`corner_region`), C and D, the local fits L2 and L4 (`local`, unit directions pointing
-//!   away from the corner), the noise level used, the corner by Scheme 1, PSO and exactly
-//!   (each a [`Search`] with point and error = sum of distances, Eq. 11), the PSO history, and
-//!   `rectified`: for each corner-region point its nearest point on the two constrained
-//!   half-lines from the corner chosen by `params.rectify_with`.
+//!   rounded abnormal zone, maybe a few outliers — and the approximate corner (somewhere in
+//!   the abnormal zone; it centres the work frame and splits the arms). Returns a
+//!   [`ProfileFit`] (all indices into `points`, all coordinates in input units):
+//!   `sides[0..2]` (the points A..C and B..D, far end first, the local fits' data),
+//!   `corner_region` (between C and D: the points to rectify), `candidates` (the swarm's
+//!   start), `c`, `d`, `local` (L2 and L4: point + unit direction pointing away from the
+//!   corner), `noise` (σ used), `scheme1` / `pso` / `exact` (each a [`Search`]: `point`,
+//!   `error` = sum of point-to-line distances, Eq. 11, `evaluations`, `converged_at`),
+//!   `scheme1_index`, `pso_history` (best error per iteration), and `rectified`: for each
+//!   corner-region point, its nearest point on the two constrained half-lines from the corner
+//!   chosen by `params.rectify_with` (PSO by default). `lines_through(&corner)` gives the
+//!   constrained lines L1, L3.
 //! - [`fit_corner_3d`] (paper §2.2, §3.2; one call per vertex): k ≥ 2 sides (the rectified
-//!   points of the edges meeting there) and the approximate vertex. Returns a [`CornerFit`]:
-//!   per side the local line and the points used, the corner region, the common point by
-//!   Scheme 1, PSO and exactly (errors by Eq. 13), the PSO history and rectified positions.
-//! - Both have an allocation-free variant for hot loops, [`fit_profile_2d_with`] /
-//!   [`fit_corner_3d_with`], which reuse a scratch struct and the output (one of each per rayon
-//!   worker: `map_init(|| (ProfileScratch::default(), ProfileFit::default()), ...)`).
-//! - [`FitParams`] is a plain serde struct with the paper's defaults (w = 0.6, c1 = c2 = 2,
-//!   r1, r2 ~ U[0, 0.2], initial velocity ~ U[0, 0.2] × the corner region's extent, 20
-//!   iterations in 2D and 10 in 3D, propagation tolerance 3σ); fill it from pipeline.toml and
-//!   call [`FitParams::validate`] once.
-//! - Degenerate input is an `Err`, never a panic or NaN: too few points on a side
-//!   ([`crate::Error::TooFewPoints`], [`crate::Error::SideTooSmall`]), non-finite coordinates,
-//!   coincident points, a single arm, parallel sides ([`crate::Error::Degenerate`]), and for the
-//!   paper's raw line forms a line they cannot represent.
+//!   points of the edges meeting there; 3 at a box corner, 4 at a pyramid apex) and the
+//!   approximate vertex. Returns a [`CornerFit`] whose per-side fields follow the caller's
+//!   side order: `lines` (local fit per side, direction pointing away from the vertex),
+//!   `sides` (indices used per side), `corner_region` and `candidates` as (side, index),
+//!   `noise`, `scheme1` / `pso` / `exact` (errors by Eq. 13), `scheme1_point`, `pso_history`
+//!   and `rectified` (corner-region points projected onto their own side's constrained
+//!   half-line).
+//! - The `_with` variants reuse a scratch struct and the output, so a hot loop does not
+//!   allocate once the buffers have grown: one of each per rayon worker, e.g.
+//!   `map_init(|| (ProfileScratch::default(), ProfileFit::default()), ...)`.
+//! - [`FitParams`] is a plain serde struct (`#[serde(default, deny_unknown_fields)]`) with the
+//!   paper's defaults: `pso.w = 0.6`, `pso.c1 = pso.c2 = 2`, `pso.r_max = 0.2` (r1, r2 ~
+//!   U[0, 0.2]), `pso.v0_max = 0.2` (initial velocity ~ U[0, 0.2] × the corner region's
+//!   extent), `pso.iterations_2d = 20`, `pso.iterations_3d = 10`, `propagation.tolerance = 3`
+//!   (in units of the noise σ, estimated unless `propagation.noise` is set), and
+//!   `min_particles = 20` (see its documentation for why). Fill it from pipeline.toml and call
+//!   [`FitParams::validate`] once.
+//! - Degenerate input is an `Err`, never a panic or NaN: too few points
+//!   ([`crate::Error::TooFewPoints`]) or too few on one side after propagation
+//!   ([`crate::Error::SideTooSmall`], naming the side); non-finite coordinates, coincident
+//!   points, a single arm, parallel sides (all points on one line), and for the paper's raw
+//!   line forms a line they cannot represent ([`crate::Error::Degenerate`]); parameters out
+//!   of range ([`crate::Error::InvalidParameter`]).
 //!
 //! # Invariances
 //! Each fit works in a frame centred on the approximate corner and scaled by the points' RMS
-//! radius, the swarm's random coefficients are scalars, and its initial velocities are drawn
-//! along the sides' own directions. Translating, rotating or scaling the input (with the
-//! approximate corner) therefore moves every found corner the same way (to rounding), and
-//! permuting the sides of a 3D fit changes nothing.
+//! radius, and the swarm runs in an orthonormal frame built from the side directions (its
+//! random coefficients drawn per coordinate of that frame). Translating, rotating or scaling
+//! the input (with the approximate corner) therefore moves every found corner the same way, to
+//! rounding; the order of the input points does not matter, and permuting the sides of a 3D
+//! fit changes no bit of the corners. Tested by property tests to 1e-9 relative.
 //!
 //! # The pieces (for tests, the experiment and other callers)
 //! - [`line`]: TLS/PCA fits, the paper's forms (Eq. 2–8) with its rotation, [`LineAcc`].
-//! - [`propagate`]: line propagation ([`propagate_run`], [`propagate_polyline`]).
+//! - [`propagate`]: line propagation ([`propagate_run`], [`propagate_polyline`] for ordered
+//!   polylines in 2D or 3D).
 //! - [`objective`]: [`FixedSlopes2`], [`FixedSlopes3`] (Eq. 11–14, k ≥ 2 lines) and
-//!   [`JointSlopes`] (slopes re-fitted through q, for the joint refinement).
-//! - [`pso`], [`ga`], [`scheme1`], [`exact`]: the searchers; each returns a [`Search`].
+//!   [`JointSlopes`] (slopes re-fitted through q).
+//! - [`pso`], [`ga`], [`scheme1`], [`exact`] (medians / LAD edge descent in 2D,
+//!   Weiszfeld–Newton in 3D), [`refine_joint`]: the searchers; each returns a [`Search`].
 //! - [`prepare_profile_2d`] / [`prepare_corner_3d`] stop at the prepared [`Problem`]
-//!   (`scratch.problem()`), so each searcher can be run and timed on its own.
+//!   (`scratch.problem()`), in the fit's local [`Frame`], so each searcher can be run and timed
+//!   on its own; [`solve_profile_2d`] / [`solve_corner_3d`] finish the fit.
 
 pub mod corner;
 pub mod exact;
@@ -64,6 +86,7 @@ pub mod problem;
 pub mod profile;
 pub mod propagate;
 pub mod pso;
+pub mod refine;
 pub mod scheme1;
 mod vec;
 
@@ -82,6 +105,7 @@ pub use problem::{Frame, Problem};
 pub use profile::{ProfileFit, ProfileScratch, prepare_profile_2d, solve_profile_2d};
 pub use propagate::{PolylineSplit, PropagationParams, propagate_polyline, propagate_run};
 pub use pso::{PsoParams, Search, SwarmScratch, converged_at, pso};
+pub use refine::refine_joint;
 pub use scheme1::scheme1;
 
 use crate::Result;

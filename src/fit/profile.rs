@@ -12,8 +12,10 @@
 //!    the far end A of arm 1 through the corner to the far end B of arm 2; propagate (§2.1)
 //!    from A and from B. The accepted points are the sides (A..C, D..B), the points between C
 //!    and D the corner region (if the two runs crossed, the points both accepted).
-//! 3. Fit L2 and L4 to the sides; build the constrained objective (§2); search the corner with
-//!    Scheme 1, PSO and exactly; rectify the corner-region points onto the constrained lines.
+//! 3. Fit L2 and L4 to the sides; build the constrained objective (§2) with every point scored
+//!    against its side's line (corner-region points against the nearer one); search the corner
+//!    with Scheme 1, PSO (in a frame whose first axis runs along the bisector towards the tip)
+//!    and exactly; rectify the corner-region points onto the constrained half-lines.
 //!
 //! Input: points, approximate corner, [`FitParams`], an RNG. Output: a [`ProfileFit`].
 
@@ -43,7 +45,7 @@ pub struct ProfileFit {
     /// to rectify.
     pub corner_region: Vec<usize>,
     /// Indices of the PSO's starting particles and Scheme 1's candidates: the corner region,
-    /// C and D, grown to `min_particles` with the points nearest the approximate corner.
+    /// C and D, grown to `min_particles` with the points nearest to their centre.
     pub candidates: Vec<usize>,
     /// Index of C (the last point accepted from side 1) and of D (from side 2).
     pub c: usize,
@@ -174,7 +176,7 @@ pub fn prepare_profile_2d(
         .sum::<f64>()
         / n as f64)
         .sqrt();
-    if !(rms > 0.0) || !rms.is_finite() {
+    if !rms.is_finite() || rms <= 0.0 {
         return Err(Error::Degenerate {
             what: WHAT,
             why: "all points coincide with the approximate corner".into(),
@@ -291,13 +293,12 @@ pub fn prepare_profile_2d(
     }
     s.t.clear();
     s.t.resize(n, 0.0);
-    for k in 0..2 {
-        let d = arm_line[k].direction;
-        for &i in &s.arm[k] {
-            s.t[i] = dot(&loc[i], &d);
+    for (arm, line) in s.arm.iter_mut().zip(&arm_line) {
+        for &i in arm.iter() {
+            s.t[i] = dot(&loc[i], &line.direction);
         }
         let t = &s.t;
-        s.arm[k].sort_by(|&a, &b| t[b].total_cmp(&t[a]).then(a.cmp(&b)));
+        arm.sort_by(|&a, &b| t[b].total_cmp(&t[a]).then(a.cmp(&b)));
     }
 
     // Noise: far halves of the arms against their own lines.
@@ -315,9 +316,13 @@ pub fn prepare_profile_2d(
     let sigma = sigma.max(1e-12);
 
     // 2. Propagation (§2.1) along the profile read as one polyline, A = far end of arm 1 ...
-    // apex ... B = far end of arm 2, from both ends, as in the paper's Figure 3: each
-    // propagation runs towards and, until the turn is detected, past the corner, so the points
-    // between the two stops C and D surround the corner.
+    // corner ... B = far end of arm 2, from both ends (the paper's Figure 3). Each run goes
+    // towards the corner and, until it sees the turn, past it; where the two runs overlap, the
+    // points both accepted surround the corner and go to the corner region, so the side fits
+    // only use points that clearly belong to one side. A run that never sees the turn (an
+    // obtuse corner in strong noise) is stopped halfway down the other arm, so it cannot
+    // swallow the other side.
+    let j = s.arm[0].len();
     s.poly.clear();
     s.poly.extend_from_slice(&s.arm[0]);
     s.poly.extend(s.arm[1].iter().rev());
@@ -330,16 +335,17 @@ pub fn prepare_profile_2d(
         sigma,
         &params.propagation,
         Some(arm_line[0].direction),
-    );
+    )
+    .min(j + (m - j) / 2);
     let b = propagate_run(
         loc,
         &s.rev,
         sigma,
         &params.propagation,
         Some(arm_line[1].direction),
-    );
-    // Side 1 = poly[..s1_end], side 2 = poly[s2_start..]; if the two runs crossed, the points
-    // both accepted go to the corner region.
+    )
+    .min(m - j + j / 2);
+    // Side 1 = poly[..s1_end], side 2 = poly[s2_start..].
     let (s1_end, s2_start) = (a.min(m - b), a.max(m - b));
     for (k, got) in [(0, s1_end), (1, m - s2_start)] {
         if got < min_side {
@@ -356,7 +362,7 @@ pub fn prepare_profile_2d(
     out.sides[0].clear();
     out.sides[0].extend_from_slice(&s.poly[..s1_end]);
     out.sides[1].clear();
-    out.sides[1].extend(s.poly[s2_start..].iter().rev());
+    out.sides[1].extend_from_slice(&s.rev[..m - s2_start]);
     out.c = s.poly[s1_end - 1];
     out.d = s.poly[s2_start];
     out.corner_region.clear();
@@ -421,9 +427,9 @@ pub fn prepare_profile_2d(
         }
     }
     s.obj.clear();
-    for k in 0..2 {
+    for (line, assigned) in local.iter().zip(&s.assigned) {
         s.obj
-            .add_line(&local[k].direction, s.assigned[k].iter().map(|&i| &loc[i]));
+            .add_line(&line.direction, assigned.iter().map(|&i| &loc[i]));
     }
 
     out.local = [
@@ -461,7 +467,7 @@ pub fn solve_profile_2d<R: Rng + ?Sized>(
             why: "no prepared problem; call prepare_profile_2d first".into(),
         });
     };
-    let (ci, s1) = scheme1(&s.obj, &s.cand).ok_or_else(|| Error::TooFewPoints {
+    let (ci, s1) = scheme1(&s.obj, &s.cand).ok_or(Error::TooFewPoints {
         what: "2D profile fit: corner candidates",
         needed: 1,
         got: 0,

@@ -215,7 +215,7 @@ pub fn side_fit<const D: usize>(
     buf.clear();
     buf.extend(idx.iter().map(|&i| pts[i]));
     let line = super::line::fit_line_form(buf, form)?;
-    if trim <= 0.0 || !(sigma > 0.0) {
+    if trim <= 0.0 || sigma.is_nan() || sigma <= 0.0 {
         return Ok(line);
     }
     let before = buf.len();
@@ -414,6 +414,38 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("needs at least 6 points, got 5"), "{e}");
+    }
+
+    #[test]
+    fn a_bent_3d_polyline_splits_at_its_bend() {
+        // 30 points along x, then 30 along a direction 100° away, noise 0.01 on a 0.2 spacing.
+        let mut rng = SmallRng::seed_from_u64(4);
+        let d2 = [-(10f64.to_radians().sin()), 0.6, 0.8];
+        let n2 = norm(&d2);
+        let mut pts: Vec<[f64; 3]> = Vec::new();
+        for i in (1..=30).rev() {
+            let t = 0.2 * i as f64;
+            pts.push(std::array::from_fn(|k| {
+                [1.0 + t, 2.0, 3.0][k] + 0.01 * standard_normal(&mut rng)
+            }));
+        }
+        for i in 1..=30 {
+            let t = 0.2 * i as f64;
+            pts.push(std::array::from_fn(|k| {
+                [1.0, 2.0, 3.0][k] + t * d2[k] / n2 + 0.01 * standard_normal(&mut rng)
+            }));
+        }
+        let s = propagate_polyline(&pts, &PropagationParams::default(), LineForm::Tls, 3).unwrap();
+        assert!((28..=31).contains(&s.sides[0].end), "{:?}", s.sides);
+        assert!((29..=32).contains(&s.sides[1].start), "{:?}", s.sides);
+        assert!(
+            s.local[0].direction[0] > 0.999,
+            "{:?}",
+            s.local[0].direction
+        );
+        let paper =
+            propagate_polyline(&pts, &PropagationParams::default(), LineForm::Paper, 3).unwrap();
+        assert_eq!(paper.sides, s.sides);
     }
 
     #[test]

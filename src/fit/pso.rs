@@ -174,12 +174,18 @@ pub fn pso<const D: usize, O: Objective<D> + ?Sized, R: Rng + ?Sized>(
             s.pos[i] = q;
             let e = obj.error(&from_basis(basis, &q));
             evaluations += 1;
-            if e < s.best_err[i] {
+            if better(e, s.best_err[i]) {
                 s.best_err[i] = e;
                 s.best[i] = q;
             }
         }
-        g = argmin(&s.best_err);
+        // The swarm's best changes only on a real improvement, so its error never rises (with
+        // the rounding margin, a fresh argmin could pick a hair-worse particle).
+        for i in 0..n {
+            if better(s.best_err[i], s.best_err[g]) {
+                g = i;
+            }
+        }
         history.push(s.best_err[g]);
     }
     Search {
@@ -190,11 +196,24 @@ pub fn pso<const D: usize, O: Objective<D> + ?Sized, R: Rng + ?Sized>(
     }
 }
 
-/// Index of the smallest value (the first one on ties; NaN never wins).
+/// Whether error `e` improves on `best` by more than rounding can explain.
+///
+/// The 2D error is piecewise linear and constant over a small polygon around its minimum (any
+/// point between the two middle values of each side's median is optimal), so inside it two
+/// candidates differ only by rounding. Counting such differences as improvements would let
+/// the last bit of the input steer the swarm: a rotated or reordered input would end at
+/// another point of the same flat minimum. With this margin the search ignores them.
+#[inline]
+pub(crate) fn better(e: f64, best: f64) -> bool {
+    e < best - 1e-12 * best.abs() || (best.is_nan() && !e.is_nan())
+}
+
+/// Index of the smallest value, in the sense of [`better`] (the first one on ties; NaN never
+/// wins).
 pub(crate) fn argmin(v: &[f64]) -> usize {
     let mut best = 0;
     for (i, &e) in v.iter().enumerate() {
-        if e < v[best] || v[best].is_nan() {
+        if better(e, v[best]) {
             best = i;
         }
     }

@@ -7,8 +7,8 @@
 use super::objective::Objective;
 use super::pso::Search;
 
-/// The candidate with the least error; `None` when there are no candidates. Ties go to the
-/// first candidate.
+/// The candidate with the least error; `None` when there are no candidates. Ties (up to
+/// rounding) go to the first candidate.
 pub fn scheme1<const D: usize, O: Objective<D> + ?Sized>(
     obj: &O,
     candidates: &[[f64; D]],
@@ -16,7 +16,7 @@ pub fn scheme1<const D: usize, O: Objective<D> + ?Sized>(
     let mut best: Option<(usize, f64)> = None;
     for (i, q) in candidates.iter().enumerate() {
         let e = obj.error(q);
-        if best.is_none_or(|(_, b)| e < b) {
+        if best.is_none_or(|(_, b)| super::pso::better(e, b)) {
             best = Some((i, e));
         }
     }

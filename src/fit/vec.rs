@@ -3,6 +3,9 @@
 //! Inputs and outputs are plain arrays so the fitting code stays allocation-free and generic
 //! over the dimension; nalgebra is not needed for 2x2 and 3x3 problems this small.
 
+// Index loops read like the formulas they implement (i, j, k over matrix entries).
+#![allow(clippy::needless_range_loop)]
+
 #[inline]
 pub(crate) fn sub<const D: usize>(a: &[f64; D], b: &[f64; D]) -> [f64; D] {
     std::array::from_fn(|k| a[k] - b[k])
