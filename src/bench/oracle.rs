@@ -45,7 +45,7 @@ pub fn fit_plane(points: impl Iterator<Item = V3> + Clone) -> Option<Plane> {
     let mut order = [0usize, 1, 2];
     order.sort_by(|&a, &b| eig.eigenvalues[a].total_cmp(&eig.eigenvalues[b]));
     let (l0, l1) = (eig.eigenvalues[order[0]], eig.eigenvalues[order[1]]);
-    if !(l1 > 0.0) || l0 > 0.5 * l1 {
+    if l1.is_nan() || l1 <= 0.0 || l0 > 0.5 * l1 {
         // Collinear (l1 ≈ 0) or no flat direction at all: no plane to speak of.
         return None;
     }
@@ -64,7 +64,7 @@ pub fn fit_plane(points: impl Iterator<Item = V3> + Clone) -> Option<Plane> {
 pub fn plane_intersection(p0: &Plane, p1: &Plane, near: V3) -> Option<(V3, V3)> {
     let u = cross(p0.normal, p1.normal);
     let s = norm(u);
-    if !(s > 1e-9) {
+    if s.is_nan() || s <= 1e-9 {
         return None;
     }
     let dir = scale(u, 1.0 / s);
@@ -103,11 +103,12 @@ pub fn planes_point(planes: &[Plane], near: V3) -> Option<V3> {
         .fold((f64::INFINITY, 0.0f64), |(lo, hi), &l| {
             (lo.min(l), hi.max(l))
         });
-    if !(lo > 1e-6 * hi) {
+    if !(lo.is_finite() && hi.is_finite()) || lo <= 1e-6 * hi {
         return None;
     }
     let x = a.lu().solve(&b)?;
-    Some(add(near, [x[0], x[1], x[2]]))
+    let x = add(near, [x[0], x[1], x[2]]);
+    x.iter().all(|c| c.is_finite()).then_some(x)
 }
 
 /// The oracle's answer for one scan.

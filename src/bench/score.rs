@@ -5,7 +5,7 @@
 //! Output: one-to-one corner matches ([`match_corners`]), the exact length of a set of
 //! segments that lies within a distance of another set ([`coverage`], used both ways for edge
 //! recall and precision), and the RMS distance of densely sampled found edges to the true
-//! ones over their matched part ([`edge_distances`]).
+//! ones over their matched part ([`edge_samples`]).
 //!
 //! Coverage is computed exactly, not by sampling: the distance from a point moving linearly
 //! along one segment to another (convex) segment is a convex function of the parameter, so the
@@ -281,10 +281,20 @@ pub fn coverage(segments: &[(V3, V3)], others: &SegmentSet) -> Vec<f64> {
         .collect()
 }
 
-/// Distances of dense samples of `segments` to the nearest segment of `truth`, for the
-/// samples within `truth`'s reach: `(weight, distance)` pairs, the weight being the length of
-/// segment each sample stands for. Samples are the midpoints of pieces at most `step` long.
-pub fn edge_distances(segments: &[(V3, V3)], truth: &SegmentSet, step: f64) -> Vec<(f64, f64)> {
+/// A sample of a found edge matched to a true one.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EdgeSample {
+    /// The length of found edge the sample stands for.
+    pub weight: f64,
+    pub distance: f64,
+    /// The nearest true segment and the vector from its closest point to the sample.
+    pub segment: usize,
+    pub offset: V3,
+}
+
+/// Dense samples of `segments` within `truth`'s reach, with their distance to the nearest
+/// true segment. Samples are the midpoints of pieces at most `step` long.
+pub fn edge_samples(segments: &[(V3, V3)], truth: &SegmentSet, step: f64) -> Vec<EdgeSample> {
     let mut out = Vec::new();
     for &(a, b) in segments {
         let len = dist(a, b);
@@ -292,11 +302,19 @@ pub fn edge_distances(segments: &[(V3, V3)], truth: &SegmentSet, step: f64) -> V
             continue;
         }
         let n = (len / step).ceil().max(1.0) as usize;
-        let w = len / n as f64;
+        let weight = len / n as f64;
         for k in 0..n {
             let p = lerp(a, b, (k as f64 + 0.5) / n as f64);
-            if let Some((d, _)) = truth.nearest_within(p) {
-                out.push((w, d));
+            if let Some((distance, segment)) = truth.nearest_within(p) {
+                let (c, d) = truth.segments()[segment];
+                let (_, t) = point_segment(p, c, d);
+                let q = lerp(c, d, t);
+                out.push(EdgeSample {
+                    weight,
+                    distance,
+                    segment,
+                    offset: [p[0] - q[0], p[1] - q[1], p[2] - q[2]],
+                });
             }
         }
     }
@@ -346,6 +364,8 @@ pub struct EdgeScore {
     pub found_covered_each: Vec<f64>,
     /// RMS, mean and maximum distance of the found edges' matched part to the true edges.
     pub distance: Option<(f64, f64, f64)>,
+    /// The samples behind `distance`.
+    pub samples: Vec<EdgeSample>,
 }
 
 impl EdgeScore {
@@ -365,6 +385,7 @@ pub fn score_edges(found: &[(V3, V3)], truth: &[(V3, V3)], tol: f64, step: f64) 
     let true_covered_each = coverage(truth, &found_set);
     let found_covered_each = coverage(found, &truth_set);
     let length = |s: &[(V3, V3)]| s.iter().map(|&(a, b)| dist(a, b)).sum::<f64>();
+    let samples = edge_samples(found, &truth_set, step);
     EdgeScore {
         true_length: length(truth),
         found_length: length(found),
@@ -372,7 +393,13 @@ pub fn score_edges(found: &[(V3, V3)], truth: &[(V3, V3)], tol: f64, step: f64) 
         found_covered: found_covered_each.iter().sum(),
         true_covered_each,
         found_covered_each,
-        distance: weighted_stats(&edge_distances(found, &truth_set, step)),
+        distance: weighted_stats(
+            &samples
+                .iter()
+                .map(|s| (s.weight, s.distance))
+                .collect::<Vec<_>>(),
+        ),
+        samples,
     }
 }
 

@@ -191,9 +191,33 @@ fn edges_offset_by_one_spacing_score_rms_one_and_full_recall() {
     assert!((m.precision.unwrap() - 1.0).abs() < 1e-12);
     assert!((m.rms_h.unwrap() - 1.0).abs() < 1e-9, "{:?}", m.rms_h);
     assert!((m.max_h.unwrap() - 1.0).abs() < 1e-9);
+    // Along one face normal: 1/√2 of the offset is along the bisector, away from the rounding.
+    let bias = m.offset_to_rounding_h.unwrap();
+    assert!((bias + 0.5f64.sqrt()).abs() < 1e-9, "{bias}");
     assert!(m.poorly_found.is_empty() && m.spurious.is_empty());
     let total: f64 = gt.edges.iter().map(|e| e.length).sum();
     assert!((m.true_length_h - total / h).abs() < 1e-9);
+}
+
+#[test]
+fn edges_moved_onto_the_rounding_have_a_positive_bias() {
+    let scan = box_truth();
+    let gt = &scan.ground_truth;
+    let h = gt.spacing;
+    // 0.5 h inwards along the bisector of every (convex) box edge, 1 h short of each end so
+    // that no other edge is nearer.
+    let found: Vec<Vec<V3>> = gt
+        .edges
+        .iter()
+        .map(|e| {
+            let inward = scale(unit(add(e.normals[0], e.normals[1])), -0.5 * h);
+            let d = scale(unit(sub(e.end, e.start)), h);
+            vec![add(add(e.start, d), inward), add(sub(e.end, d), inward)]
+        })
+        .collect();
+    let m = edge_metrics(&found, gt, None, h);
+    assert!((m.offset_to_rounding_h.unwrap() - 0.5).abs() < 1e-9);
+    assert!((m.rms_h.unwrap() - 0.5).abs() < 1e-9);
 }
 
 #[test]
@@ -331,6 +355,7 @@ fn scored(kind: Kind) -> CaseResult {
         rms_h: Some(0.02),
         mean_h: Some(0.01),
         max_h: Some(0.1),
+        offset_to_rounding_h: Some(0.0),
         oracle_rms_h: None,
         oracle_recall: None,
         ratio_to_oracle: None,
