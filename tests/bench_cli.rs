@@ -309,3 +309,34 @@ fn mesh_cases_run_or_are_skipped_with_a_note() {
         .collect();
     assert!(names.contains(&"edge recall") && !names.contains(&"corner recall"));
 }
+
+#[test]
+fn the_pipeline_file_is_read_and_its_errors_name_it() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("bad.toml"), "seed = 3\nbogus = 1\n").unwrap();
+    let (ok, _, err) = bench(
+        &["--cases", "box", "--config", "bad.toml", "-q"],
+        dir.path(),
+    );
+    assert!(!ok);
+    assert!(err.contains("bad.toml:2: bogus: unknown field"), "{err}");
+
+    std::fs::write(dir.path().join("good.toml"), "seed = 3\n").unwrap();
+    let (ok, out, err) = bench(
+        &[
+            "--cases",
+            "box-30k",
+            "--config",
+            "good.toml",
+            "--out",
+            "g.json",
+        ],
+        dir.path(),
+    );
+    assert!(ok, "{err}");
+    assert!(out.contains("config good.toml"), "{out}");
+    let j = read_json(&dir.path().join("g.json"));
+    assert_eq!(j["config"], "good.toml");
+    assert_eq!(j["settings"]["seed"], 3);
+    assert_eq!(j["cases"][0]["points"].as_u64().unwrap() / 1000, 29);
+}

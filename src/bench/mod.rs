@@ -336,6 +336,9 @@ pub struct EdgeMetrics {
     pub found_length_h: f64,
     pub recall: Option<f64>,
     pub precision: Option<f64>,
+    /// Matched found length / matched true length: how many found edges cover a true one on
+    /// average (1 ideally; 2 when every edge is reported twice, which precision does not see).
+    pub duplication: Option<f64>,
     /// Distance of the found edges' matched part to the true edges.
     pub rms_h: Option<f64>,
     pub mean_h: Option<f64>,
@@ -836,6 +839,7 @@ pub fn edge_metrics(
         found_length_h: es.found_length / h,
         recall: es.recall(),
         precision: es.precision(),
+        duplication: (es.true_covered > 0.0).then(|| es.found_covered / es.true_covered),
         rms_h,
         mean_h: es.distance.map(|d| d.1 / h),
         max_h: es.distance.map(|d| d.2 / h),
@@ -1086,12 +1090,13 @@ pub fn table(rep: &BenchReport) -> String {
     let _ = writeln!(t);
     let _ = writeln!(
         t,
-        "{:<13} {:>7} {:>9} {:>6} {:>5} {:>6} {:>5} {:>5} {:>5} {:>4}  {:>5} {:>5} {:>5}  {:>6}",
+        "{:<13} {:>7} {:>9} {:>6} {:>5} {:>5} {:>6} {:>5} {:>5} {:>5} {:>4}  {:>5} {:>5} {:>5}  {:>6}",
         "detection",
         "points",
         "edges f/t",
         "recall",
         "prec",
+        "dup",
         "crn f/t",
         "rec",
         "prec",
@@ -1116,12 +1121,13 @@ pub fn table(rep: &BenchReport) -> String {
         let m = r.measured;
         let _ = writeln!(
             t,
-            "{:<13} {:>7} {:>9} {} {} {:>6} {} {} {} {:>4}  {} {} {}  {:>6.1}",
+            "{:<13} {:>7} {:>9} {} {} {} {:>6} {} {} {} {:>4}  {} {} {}  {:>6.1}",
             r.name,
             r.points,
             format!("{}/{}", e.found, e.true_polylines),
             opt(e.recall, 6, 3),
             opt(e.precision, 5, 3),
+            opt(e.duplication, 5, 2),
             format!("{}/{}", c.found, c.truth),
             opt(c.recall, 5, 2),
             opt(c.precision, 5, 2),
@@ -1193,11 +1199,11 @@ pub fn table(rep: &BenchReport) -> String {
     let _ = writeln!(t);
     let _ = writeln!(
         t,
-        "detection: edges/corners found/true; cand = share of true edge points (≤ {EDGE_TOL} h) that are candidates;"
+        "detection: edges/corners found/true; dup = found edge length per true edge length (matched parts, 1 ideally);"
     );
     let _ = writeln!(
         t,
-        "  spc, noise, rad = spacing, noise sigma and neighbourhood radius the pipeline measured (h)."
+        "  cand = share of true edge points (≤ {EDGE_TOL} h) that are candidates; fail = failed fits;\n  spc, noise, rad = spacing, noise sigma and neighbourhood radius the pipeline measured (h)."
     );
     let _ = writeln!(
         t,

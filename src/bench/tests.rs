@@ -189,6 +189,7 @@ fn edges_offset_by_one_spacing_score_rms_one_and_full_recall() {
     assert_eq!((m.found, m.true_polylines, m.true_segments), (12, 12, 12));
     assert!((m.recall.unwrap() - 1.0).abs() < 1e-12, "{:?}", m.recall);
     assert!((m.precision.unwrap() - 1.0).abs() < 1e-12);
+    assert!((m.duplication.unwrap() - 1.0).abs() < 1e-12);
     assert!((m.rms_h.unwrap() - 1.0).abs() < 1e-9, "{:?}", m.rms_h);
     assert!((m.max_h.unwrap() - 1.0).abs() < 1e-9);
     // Along one face normal: 1/√2 of the offset is along the bisector, away from the rounding.
@@ -218,6 +219,18 @@ fn edges_moved_onto_the_rounding_have_a_positive_bias() {
     let m = edge_metrics(&found, gt, None, h);
     assert!((m.offset_to_rounding_h.unwrap() - 0.5).abs() < 1e-9);
     assert!((m.rms_h.unwrap() - 0.5).abs() < 1e-9);
+}
+
+#[test]
+fn edges_reported_twice_have_duplication_two_and_full_precision() {
+    let scan = box_truth();
+    let gt = &scan.ground_truth;
+    let mut found: Vec<Vec<V3>> = gt.edges.iter().map(|e| vec![e.start, e.end]).collect();
+    found.extend(gt.edges.iter().map(|e| vec![e.end, e.start]));
+    let m = edge_metrics(&found, gt, None, gt.spacing);
+    assert_eq!((m.recall, m.precision), (Some(1.0), Some(1.0)));
+    assert!((m.duplication.unwrap() - 2.0).abs() < 1e-12);
+    assert_eq!(m.found, 24);
 }
 
 #[test]
@@ -352,6 +365,7 @@ fn scored(kind: Kind) -> CaseResult {
         found_length_h: 100.0,
         recall: Some(0.99),
         precision: Some(0.97),
+        duplication: Some(1.0),
         rms_h: Some(0.02),
         mean_h: Some(0.01),
         max_h: Some(0.1),
