@@ -153,7 +153,12 @@ pub struct ExperimentArgs {
     /// Write SVG figures (convergence, PSO vs GA, one fit) into this folder.
     #[arg(long)]
     pub out: Option<PathBuf>,
-    /// Print one JSON object instead of tables.
+    /// Round the generated corners with a fillet (2D) or blunting (3D) of up to this size
+    /// (the sides are 10 long). Not in the paper's data; a stress test of the search.
+    #[arg(long, default_value_t = 0.0)]
+    pub rounding: f64,
+    /// Print one JSON object instead of tables (with both dimensions, their objects are in an
+    /// "experiments" array).
     #[arg(long)]
     pub json: bool,
 }
@@ -343,8 +348,66 @@ fn info(_cli: &Cli, a: &InfoArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn experiment(_cli: &Cli, _a: &ExperimentArgs) -> anyhow::Result<()> {
-    anyhow::bail!("`experiment` is being built")
+fn experiment(cli: &Cli, a: &ExperimentArgs) -> anyhow::Result<()> {
+    use sharpedge::experiment::{ExperimentConfig, plots, run};
+    if !(a.rounding >= 0.0 && a.rounding <= 5.0) {
+        return Err(sharpedge::Error::Usage {
+            option: "--rounding".into(),
+            message: format!(
+                "must be between 0 and 5 (the sides are 10 long), got {}",
+                a.rounding
+            ),
+        }
+        .into());
+    }
+    if a.trials == 0 {
+        return Err(sharpedge::Error::Usage {
+            option: "--trials".into(),
+            message: "must be at least 1".into(),
+        }
+        .into());
+    }
+    let dims = a.dim.map_or(vec![2, 3], |d| vec![d]);
+    let mut reports = Vec::with_capacity(dims.len());
+    for dim in dims {
+        let progress = if cli.quiet {
+            sharpedge::progress::Progress::hidden()
+        } else {
+            let stage = if dim == 2 { "2D trials" } else { "3D trials" };
+            sharpedge::progress::Progress::start(stage, a.trials as u64, "trials")
+        };
+        let cfg = ExperimentConfig {
+            dim,
+            trials: a.trials,
+            seed: a.seed,
+            params: sharpedge::fit::FitParams::default(),
+            abnormality: sharpedge::experiment::data::Abnormality {
+                rounding: a.rounding,
+            },
+        };
+        let report = run(&cfg, &progress)?;
+        if let Some(dir) = &a.out {
+            for path in plots::write_figures(&report, dir)? {
+                tracing::info!("wrote {}", path.display());
+            }
+        }
+        reports.push(report);
+    }
+    if a.json {
+        // Exactly one JSON object: the dimension's own, or both under "experiments".
+        let value = match reports.as_slice() {
+            [one] => one.json(),
+            many => serde_json::json!({
+                "experiments": many.iter().map(|r| r.json()).collect::<Vec<_>>()
+            }),
+        };
+        println!("{}", serde_json::to_string_pretty(&value)?);
+    } else {
+        for r in &reports {
+            println!("{}", r.table());
+        }
+    }
+    Ok(())
 }
 
 fn bench(_cli: &Cli, a: &BenchArgs) -> anyhow::Result<()> {

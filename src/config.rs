@@ -151,6 +151,7 @@ struct RawSegment {
     vertex_gap: Opt<f64>,
     vertex_reach: Opt<f64>,
     min_density: Opt<f64>,
+    absorb: Opt<f64>,
 }
 
 // ---- typed: what the core uses ----
@@ -594,6 +595,7 @@ impl Checker<'_> {
                 1.0,
                 false,
             )?,
+            absorb: self.number(&g.absorb, "segment.absorb", gd.absorb, 0.0, 20.0, false)?,
         };
         let e = &raw.edges;
         let ed = &d.edges;

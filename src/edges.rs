@@ -222,7 +222,14 @@ fn fit_run(
             profile.push([dot(v, e1), dot(v, e2)]);
             members.push(i);
         }
-        match fit_profile_2d_with(&profile, [0.0, 0.0], fit, rng, scratch, out) {
+        let res = fit_profile_2d_with(&profile, [0.0, 0.0], fit, rng, scratch, out);
+        if let Ok(spec) = std::env::var("SHARPEDGE_DUMP") {
+            if spec == format!("{k},{s}") {
+                let j = serde_json::json!({"profile": profile, "ok": res.is_ok(), "sides": out.sides, "corner_region": out.corner_region, "local": [[out.local[0].point, out.local[0].direction],[out.local[1].point, out.local[1].direction]], "pso": out.pso.point, "exact": out.exact.point, "scheme1": out.scheme1.point, "errors": [out.scheme1.error, out.pso.error, out.exact.error], "noise": out.noise, "c": out.c, "d": out.d, "e1": e1, "e2": e2, "c3": c});
+                let _ = std::fs::write("/tmp/slab.json", j.to_string());
+            }
+        }
+        match res {
             Ok(()) => {
                 let lift = |q: [f64; 2]| add(c, add(e1.map(|x| x * q[0]), e2.map(|x| x * q[1])));
                 let faces = [0, 1].map(|j| {

@@ -41,6 +41,8 @@ pub struct SegmentParams {
     /// no further than `vertex_reach` radii beyond the ends.
     pub vertex_gap: f64,
     pub vertex_reach: f64,
+    /// Agreeing candidates within this many radii of an accepted run are part of its band.
+    pub absorb: f64,
     /// Runs with fewer candidates per unit length than this share of the median run are
     /// dropped.
     pub min_density: f64,
@@ -57,6 +59,7 @@ impl Default for SegmentParams {
             vertex_gap: 1.0,
             vertex_reach: 5.0,
             min_density: 0.3,
+            absorb: 3.0,
         }
     }
 }
@@ -173,6 +176,20 @@ pub fn segment(
             taken[m] = true;
         }
         if let Some(run) = make_run(&cand_pos, &members, r, params.min_length * r) {
+            // The run's band is wider than its tube where the edge is rounded or noisy: the
+            // agreeing candidates on its flanks belong to it too and must not seed a parallel
+            // shadow run.
+            let reach = params.absorb * r;
+            let cl = &run.centreline;
+            for w in 0..cl.len().max(1) {
+                let (a, b) = (cl[w.min(cl.len() - 1)], cl[(w + 1).min(cl.len() - 1)]);
+                grid.for_each_near_segment(a, b, reach, |j| {
+                    let j = j as usize;
+                    if dot(dirs[j], run.direction).abs() >= cos_dir {
+                        taken[j] = true;
+                    }
+                });
+            }
             let mut ids: Vec<u32> = members.iter().map(|&m| cand[m]).collect();
             ids.sort_unstable();
             runs.push(Run { points: ids, ..run });

@@ -91,7 +91,7 @@ pub struct CornerScratch {
     buf: Vec<[f64; 3]>,
     cand_idx: Vec<usize>,
     cand: Vec<[f64; 3]>,
-    axes: Vec<[f64; 3]>,
+    basis: [[f64; 3]; 3],
     assigned: Vec<Vec<usize>>,
     flag: Vec<bool>,
     tmp: Vec<usize>,
@@ -109,7 +109,7 @@ impl CornerScratch {
         Some(Problem {
             objective: &self.obj,
             candidates: &self.cand,
-            axes: &self.axes,
+            basis: self.basis,
             scale: self.cand_scale,
             points: &self.loc,
             assigned: &self.assigned,
@@ -203,6 +203,7 @@ pub fn prepare_corner_3d(
     s.t.clear();
     s.t.resize(loc.len(), 0.0);
     let mut mean_r = vec![0.0; k];
+    let mut prior = Vec::with_capacity(k);
     for j in 0..k {
         let r = s.start[j]..s.start[j + 1];
         let mut acc = LineAcc::default();
@@ -216,10 +217,14 @@ pub fn prepare_corner_3d(
         let Some((_, line)) = acc.fit() else {
             return Err(Error::Degenerate {
                 what: WHAT,
-                why: format!("all points of side {} coincide; an edge needs a direction", j + 1),
+                why: format!(
+                    "all points of side {} coincide; an edge needs a direction",
+                    j + 1
+                ),
             });
         };
         let d = line.oriented(&centroid).direction;
+        prior.push(d);
         for g in r.clone() {
             s.t[g] = dot(&loc[g], &d);
         }
@@ -228,7 +233,10 @@ pub fn prepare_corner_3d(
         o.extend(r.clone());
         let t = &s.t;
         o.sort_by(|&a, &b| t[b].total_cmp(&t[a]).then(a.cmp(&b)));
-        mean_r[j] = r.clone().map(|g| loc[g].iter().map(|x| x * x).sum::<f64>().sqrt()).sum::<f64>()
+        mean_r[j] = r
+            .clone()
+            .map(|g| loc[g].iter().map(|x| x * x).sum::<f64>().sqrt())
+            .sum::<f64>()
             / r.len() as f64;
     }
     // Canonical side order: by count, then mean distance from the approximate vertex.
@@ -263,7 +271,7 @@ pub fn prepare_corner_3d(
     let mut accepted = vec![0usize; k];
     for j in 0..k {
         let o = &s.order[j];
-        accepted[j] = propagate_run(loc, o, sigma, &params.propagation);
+        accepted[j] = propagate_run(loc, o, sigma, &params.propagation, Some(prior[j]));
         if accepted[j] < min_side {
             return Err(Error::SideTooSmall {
                 fit: WHAT,
@@ -274,7 +282,14 @@ pub fn prepare_corner_3d(
                        lower min_side_points",
             });
         }
-        let l = side_fit(loc, &o[..accepted[j]], params.line_form, params.trim, sigma, &mut s.buf)?;
+        let l = side_fit(
+            loc,
+            &o[..accepted[j]],
+            params.line_form,
+            params.trim,
+            sigma,
+            &mut s.buf,
+        )?;
         let outward = sub(&loc[o[0]], &loc[o[accepted[j] - 1]]);
         let l = l.oriented(&outward);
         s.local.push(l);
@@ -322,8 +337,7 @@ pub fn prepare_corner_3d(
     s.cand.clear();
     s.cand.extend(s.cand_idx.iter().map(|&g| loc[g]));
     s.cand_scale = rms_radius(loc, s.cand_idx.iter().copied()).max(sigma);
-    s.axes.clear();
-    s.axes.extend(s.canon.iter().map(|&j| s.local[j].direction));
+    s.basis = swarm_basis(&s.canon, &s.local);
 
     // Objective, lines in canonical order: each side's points against its own line.
     s.assigned.resize_with(k, Vec::new);
@@ -347,6 +361,37 @@ pub fn prepare_corner_3d(
     out.noise = frame.length_to_input(sigma);
     s.frame = Some(frame);
     Ok(())
+}
+
+/// The swarm's orthonormal frame, from the side directions taken in canonical order (so it
+/// turns with the data and does not depend on the caller's side order): the first axis points
+/// from the inside of the corner towards its tip (minus the sum of the outward directions),
+/// the second is the first canonical side's direction made perpendicular to it, the third
+/// completes a right-handed frame.
+fn swarm_basis(canon: &[usize], local: &[Line3]) -> [[f64; 3]; 3] {
+    let mut sum = [0.0; 3];
+    for &j in canon {
+        sum = super::vec::add(&sum, &local[j].direction);
+    }
+    let first = local[canon[0]].direction;
+    let e1 = if norm(&sum) > 0.05 * canon.len() as f64 {
+        super::vec::scale(&sum, -1.0 / norm(&sum))
+    } else {
+        // The directions (nearly) cancel, e.g. a flat cross: use the normal of two of them.
+        canon[1..]
+            .iter()
+            .map(|&j| cross(&first, &local[j].direction))
+            .max_by(|a, b| norm(a).total_cmp(&norm(b)))
+            .and_then(|c| super::vec::unit(&c))
+            .unwrap_or([0.0, 0.0, 1.0])
+    };
+    let e2 = canon
+        .iter()
+        .map(|&j| super::vec::reject(&local[j].direction, &e1))
+        .find(|v| norm(v) > 0.1)
+        .and_then(|v| super::vec::unit(&v))
+        .unwrap_or_else(|| super::vec::perp_basis(&e1).0);
+    [e1, e2, cross(&e1, &e2)]
 }
 
 /// The searches on the problem prepared in `scratch`: Scheme 1, PSO, exact, and the
@@ -373,7 +418,7 @@ pub fn solve_corner_3d<R: Rng + ?Sized>(
     let p = pso(
         &s.obj,
         &s.cand,
-        &s.axes,
+        &s.basis,
         s.cand_scale,
         &params.pso,
         params.pso.iterations_3d,

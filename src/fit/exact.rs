@@ -179,7 +179,11 @@ fn lad_2d(obj: &FixedSlopes2, _scratch: &mut [f64]) -> Result<Exact<2>> {
                 for (m, b) in &terms {
                     let r = b - dot(m, &q);
                     let md = dot(m, &d);
-                    g += if r.abs() <= tol { md.abs() } else { -r.signum() * md };
+                    g += if r.abs() <= tol {
+                        md.abs()
+                    } else {
+                        -r.signum() * md
+                    };
                 }
                 if best.is_none_or(|(bg, _)| g < bg) {
                     best = Some((g, d));
@@ -210,11 +214,7 @@ fn lad_2d(obj: &FixedSlopes2, _scratch: &mut [f64]) -> Result<Exact<2>> {
 /// The exact minimiser of a 3D fixed-slope objective (Weiszfeld / IRLS with Newton
 /// acceleration). `scale` is the size of the problem (the corner region's extent in the
 /// objective's frame); tolerances are relative to it.
-pub fn exact_3d(
-    obj: &FixedSlopes3,
-    scale: f64,
-    params: &ExactParams,
-) -> Result<Exact<3>> {
+pub fn exact_3d(obj: &FixedSlopes3, scale: f64, params: &ExactParams) -> Result<Exact<3>> {
     const WHAT: &str = "exact 3D corner";
     let k = obj.lines();
     if k < 2 {
@@ -224,7 +224,11 @@ pub fn exact_3d(
             got: k,
         });
     }
-    let scale = if scale > 0.0 && scale.is_finite() { scale } else { 1.0 };
+    let scale = if scale > 0.0 && scale.is_finite() {
+        scale
+    } else {
+        1.0
+    };
     let eps = 1e-12 * scale;
 
     // One pass: residuals at q, error, and the IRLS / Newton systems.
@@ -429,10 +433,17 @@ mod tests {
             let obj = random_2d(2, seed);
             let ex = exact_2d(&obj, &mut scratch).unwrap();
             let b = brute(&obj, ex.point, 3.0);
-            assert!(ex.error <= b + 1e-9, "seed {seed}: exact {} > brute {b}", ex.error);
+            assert!(
+                ex.error <= b + 1e-9,
+                "seed {seed}: exact {} > brute {b}",
+                ex.error
+            );
             // The general LAD path agrees with the medians.
             let lad = lad_2d(&obj, &mut scratch).unwrap();
-            assert!((lad.error - ex.error).abs() < 1e-9 * ex.error, "seed {seed}");
+            assert!(
+                (lad.error - ex.error).abs() < 1e-9 * ex.error,
+                "seed {seed}"
+            );
         }
     }
 
@@ -444,7 +455,11 @@ mod tests {
                 let obj = random_2d(k, 100 + seed);
                 let ex = exact_2d(&obj, &mut scratch).unwrap();
                 let b = brute(&obj, ex.point, 3.0);
-                assert!(ex.error <= b + 1e-9, "k {k} seed {seed}: {} > {b}", ex.error);
+                assert!(
+                    ex.error <= b + 1e-9,
+                    "k {k} seed {seed}: {} > {b}",
+                    ex.error
+                );
             }
         }
     }
@@ -474,8 +489,16 @@ mod tests {
             }
             let ex = exact_3d(&obj, 1.0, &ExactParams::default()).unwrap();
             let b = brute(&obj, ex.point, 1.0);
-            assert!(ex.error <= b + 1e-9, "seed {seed}: exact {} > brute {b}", ex.error);
-            assert!(ex.iterations < 60, "seed {seed}: {} iterations", ex.iterations);
+            assert!(
+                ex.error <= b + 1e-9,
+                "seed {seed}: exact {} > brute {b}",
+                ex.error
+            );
+            assert!(
+                ex.iterations < 60,
+                "seed {seed}: {} iterations",
+                ex.iterations
+            );
         }
     }
 
@@ -485,12 +508,12 @@ mod tests {
         let mut obj = FixedSlopes3::default();
         let c = [2.0, 3.0, -1.0];
         for d in [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]] {
-            let pts: Vec<[f64; 3]> =
-                (1..20).map(|i| std::array::from_fn(|a| c[a] + 0.1 * i as f64 * d[a])).collect();
+            let pts: Vec<[f64; 3]> = (1..20)
+                .map(|i| std::array::from_fn(|a| c[a] + 0.1 * i as f64 * d[a]))
+                .collect();
             obj.add_line(&d, &pts);
         }
-        let ex = exact_3d(&obj, 1.0, &ExactParams::default())
-            .unwrap();
+        let ex = exact_3d(&obj, 1.0, &ExactParams::default()).unwrap();
         assert!(norm(&[ex.point[0] - 2.0, ex.point[1] - 3.0, ex.point[2] + 1.0]) < 1e-9);
         assert!(ex.error < 1e-8);
     }

@@ -1,8 +1,9 @@
 //! A real-coded genetic algorithm for the corner, for the paper's PSO-vs-GA comparison
 //! (Figure 10: "same discrete data points and same iterations").
 //!
-//! Same start and same budget as the PSO: the population is the corner-region points, each
-//! generation evaluates as many children as there are individuals. A child comes from two
+//! Same start, frame and budget as the PSO: the population is the corner-region points, each
+//! generation evaluates as many children as there are individuals, and coordinates are taken
+//! in the same orthonormal frame. A child comes from two
 //! parents picked by binary tournament, by BLX-α crossover per coordinate (Eshelman & Schaffer
 //! 1993), then, with probability `mutation_rate`, a Gaussian mutation of size
 //! `mutation_scale` × the corner region's extent, shrinking linearly over the generations.
@@ -15,7 +16,7 @@ use rand::{Rng, RngExt};
 use serde::{Deserialize, Serialize};
 
 use super::objective::Objective;
-use super::pso::{Search, argmin, converged_at};
+use super::pso::{Search, argmin, converged_at, from_basis, to_basis};
 
 /// GA parameters.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -63,6 +64,7 @@ pub struct GaScratch<const D: usize> {
 pub fn ga<const D: usize, O: Objective<D> + ?Sized, R: Rng + ?Sized>(
     obj: &O,
     init: &[[f64; D]],
+    basis: &[[f64; D]; D],
     scale: f64,
     params: &GaParams,
     generations: usize,
@@ -77,7 +79,7 @@ pub fn ga<const D: usize, O: Objective<D> + ?Sized, R: Rng + ?Sized>(
     }
     let s = &mut *scratch;
     s.pop.clear();
-    s.pop.extend_from_slice(init);
+    s.pop.extend(init.iter().map(|q| to_basis(basis, q)));
     s.err.clear();
     s.err.extend(init.iter().map(|q| obj.error(q)));
     let mut evaluations = n;
@@ -100,14 +102,15 @@ pub fn ga<const D: usize, O: Objective<D> + ?Sized, R: Rng + ?Sized>(
             for k in 0..D {
                 let (lo, hi) = (a[k].min(c[k]), a[k].max(c[k]));
                 let w = hi - lo;
-                kid[k] = lo - params.alpha * w + rng.random::<f64>() * (1.0 + 2.0 * params.alpha) * w;
+                kid[k] =
+                    lo - params.alpha * w + rng.random::<f64>() * (1.0 + 2.0 * params.alpha) * w;
             }
             if rng.random::<f64>() < params.mutation_rate {
                 for x in kid.iter_mut() {
                     *x += sigma * standard_normal(rng);
                 }
             }
-            s.kid_err.push(obj.error(&kid));
+            s.kid_err.push(obj.error(&from_basis(basis, &kid)));
             s.kids.push(kid);
         }
         evaluations += n;
@@ -132,7 +135,7 @@ pub fn ga<const D: usize, O: Objective<D> + ?Sized, R: Rng + ?Sized>(
         history.push(best_err);
     }
     Search {
-        point: best,
+        point: from_basis(basis, &best),
         error: best_err,
         evaluations,
         converged_at: converged_at(history),
@@ -154,11 +157,18 @@ mod tests {
 
     #[test]
     fn ga_improves_on_its_start_with_the_same_budget_as_pso() {
-        let init = [[0.0, 0.0], [2.0, -1.0], [1.5, -3.0], [0.5, -2.5], [0.0, -1.0]];
+        let init = [
+            [0.0, 0.0],
+            [2.0, -1.0],
+            [1.5, -3.0],
+            [0.5, -2.5],
+            [0.0, -1.0],
+        ];
         let mut hist = Vec::new();
         let r = ga(
             &Bowl,
             &init,
+            &[[1.0, 0.0], [0.0, 1.0]],
             1.0,
             &GaParams::default(),
             20,

@@ -137,7 +137,9 @@ impl<const D: usize> LineAcc<D> {
     /// Scatter matrix about the centroid (sum of outer products of centred points).
     pub fn scatter(&self) -> [[f64; D]; D] {
         let n = self.n.max(1) as f64;
-        std::array::from_fn(|i| std::array::from_fn(|j| self.sum2[i][j] - self.sum[i] * self.sum[j] / n))
+        std::array::from_fn(|i| {
+            std::array::from_fn(|j| self.sum2[i][j] - self.sum[i] * self.sum[j] / n)
+        })
     }
 
     /// Total-least-squares line of the points so far: eigenvalues of the scatter matrix
@@ -181,7 +183,10 @@ fn check_points<const D: usize>(what: &'static str, pts: &[[f64; D]]) -> Result<
     if let Some(i) = pts.iter().position(|p| !finite(p)) {
         return Err(Error::Degenerate {
             what,
-            why: format!("point {i} has a non-finite coordinate {:?}; remove it first", pts[i]),
+            why: format!(
+                "point {i} has a non-finite coordinate {:?}; remove it first",
+                pts[i]
+            ),
         });
     }
     Ok(())
@@ -199,7 +204,10 @@ pub fn fit_line<const D: usize>(pts: &[[f64; D]]) -> Result<Line<D>> {
     }
     acc.fit().map(|(_, l)| l).ok_or_else(|| Error::Degenerate {
         what: WHAT,
-        why: format!("all {} points coincide; a line needs two distinct points", pts.len()),
+        why: format!(
+            "all {} points coincide; a line needs two distinct points",
+            pts.len()
+        ),
     })
 }
 
@@ -228,7 +236,10 @@ pub fn fit_line_2d_paper(pts: &[[f64; 2]]) -> Result<Line2> {
     let (u, v) = if sxx >= syy { (0, 1) } else { (1, 0) };
     let (a, b) = regress(pts, u, v).ok_or_else(|| Error::Degenerate {
         what: WHAT,
-        why: format!("all {} points coincide; a line needs two distinct points", pts.len()),
+        why: format!(
+            "all {} points coincide; a line needs two distinct points",
+            pts.len()
+        ),
     })?;
     // Point at the mean of the regressor, direction (1, a) in the (u, v) axes.
     let mu = pts.iter().map(|p| p[u]).sum::<f64>() / pts.len() as f64;
@@ -335,7 +346,10 @@ pub fn fit_line_3d_paper(pts: &[[f64; 3]]) -> Result<(Line3, PaperRotation)> {
     let line = fit_line_3d_paper_raw(&rotated)
         .map_err(|_| Error::Degenerate {
             what: WHAT,
-            why: format!("all {} points coincide; a line needs two distinct points", pts.len()),
+            why: format!(
+                "all {} points coincide; a line needs two distinct points",
+                pts.len()
+            ),
         })?
         .to_line(z0);
     Ok((
@@ -431,9 +445,14 @@ mod tests {
     #[test]
     fn tls_recovers_exact_lines_in_2d_and_3d() {
         let d2 = [0.6, 0.8];
-        let pts: Vec<[f64; 2]> = (0..10).map(|i| [2.0 + i as f64 * d2[0], -1.0 + i as f64 * d2[1]]).collect();
+        let pts: Vec<[f64; 2]> = (0..10)
+            .map(|i| [2.0 + i as f64 * d2[0], -1.0 + i as f64 * d2[1]])
+            .collect();
         let l = fit_line(&pts).unwrap();
-        assert!((l.direction[0].abs() - 0.6).abs() < 1e-14 && (l.direction[1].abs() - 0.8).abs() < 1e-14);
+        assert!(
+            (l.direction[0].abs() - 0.6).abs() < 1e-14
+                && (l.direction[1].abs() - 0.8).abs() < 1e-14
+        );
         assert!(pts.iter().all(|p| l.distance(p) < 1e-13));
         let d3 = unit(&[1.0, 2.0, 3.0]).unwrap();
         let p3 = noisy_line3(d3, 30, 0.0, 1);
@@ -469,7 +488,11 @@ mod tests {
             let pts = noisy_line3(axis, 40, 0.0, 3);
             let (l, how) = fit_line_3d_paper(&pts).unwrap();
             assert_eq!(how, want, "axis {axis:?}");
-            assert!(same_dir(&l.direction, &axis) < 1e-14, "axis {axis:?}: {:?}", l.direction);
+            assert!(
+                same_dir(&l.direction, &axis) < 1e-14,
+                "axis {axis:?}: {:?}",
+                l.direction
+            );
             assert!(pts.iter().all(|p| l.distance(p) < 1e-12));
         }
         // Without the rotation, a line along x or y is refused with a message saying why.
@@ -492,7 +515,10 @@ mod tests {
 
     #[test]
     fn degenerate_input_is_an_error_not_a_nan() {
-        assert!(matches!(fit_line::<2>(&[[1.0, 1.0]]), Err(Error::TooFewPoints { got: 1, .. })));
+        assert!(matches!(
+            fit_line::<2>(&[[1.0, 1.0]]),
+            Err(Error::TooFewPoints { got: 1, .. })
+        ));
         let same = [[1.0, 2.0, 3.0]; 4];
         let e = fit_line(&same).unwrap_err().to_string();
         assert!(e.contains("coincide"), "{e}");

@@ -290,15 +290,25 @@ mod tests {
         assert!(obj.add_line(&d1, &s1));
         assert!(obj.add_line(&d2, &s2));
         for q in [[0.0, 0.0], [1.5, -2.5], [10.0, 3.0]] {
-            let l1 = Line { point: q, direction: d1 };
-            let l2 = Line { point: q, direction: d2 };
+            let l1 = Line {
+                point: q,
+                direction: d1,
+            };
+            let l2 = Line {
+                point: q,
+                direction: d2,
+            };
             let want: f64 = s1.iter().map(|p| l1.distance(p)).sum::<f64>()
                 + s2.iter().map(|p| l2.distance(p)).sum::<f64>();
             assert!((obj.error(&q) - want).abs() < 1e-12, "{q:?}");
         }
         assert_eq!(obj.error(&[f64::NAN, 0.0]), f64::INFINITY);
 
-        let e = [unit(&[1.0, 0.2, -0.1]).unwrap(), unit(&[0.0, 1.0, 0.4]).unwrap(), [0.0, 0.0, 1.0]];
+        let e = [
+            unit(&[1.0, 0.2, -0.1]).unwrap(),
+            unit(&[0.0, 1.0, 0.4]).unwrap(),
+            [0.0, 0.0, 1.0],
+        ];
         let sides: [&[[f64; 3]]; 3] = [
             &[[1.0, 2.0, 3.0], [0.0, -1.0, 2.0]],
             &[[4.0, 0.0, 1.0]],
@@ -313,7 +323,10 @@ mod tests {
                 .iter()
                 .zip(sides)
                 .map(|(d, s)| {
-                    let l = Line { point: q, direction: *d };
+                    let l = Line {
+                        point: q,
+                        direction: *d,
+                    };
                     s.iter().map(|p| l.distance(p)).sum::<f64>()
                 })
                 .sum();
@@ -326,8 +339,12 @@ mod tests {
         // Points exactly on two lines through (1, 1): the joint error there is zero, and the
         // re-fitted directions are the true ones.
         let mut j = JointSlopes::<2>::default();
-        let a: Vec<[f64; 2]> = (1..6).map(|i| [1.0 + i as f64, 1.0 + 0.5 * i as f64]).collect();
-        let b: Vec<[f64; 2]> = (1..6).map(|i| [1.0 - 0.3 * i as f64, 1.0 + i as f64]).collect();
+        let a: Vec<[f64; 2]> = (1..6)
+            .map(|i| [1.0 + i as f64, 1.0 + 0.5 * i as f64])
+            .collect();
+        let b: Vec<[f64; 2]> = (1..6)
+            .map(|i| [1.0 - 0.3 * i as f64, 1.0 + i as f64])
+            .collect();
         j.add_side(&a);
         j.add_side(&b);
         assert!(j.error(&[1.0, 1.0]) < 1e-12);

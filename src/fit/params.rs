@@ -46,7 +46,11 @@ pub struct FitParams {
     /// the paper's "every discrete data point" does; `false` scores the side points only.
     pub include_corner_region: bool,
     /// Fewest particles / Scheme 1 candidates; a smaller corner region is grown by the data
-    /// points nearest the approximate corner.
+    /// points nearest to its centre. The paper has one particle per corner-region point; with
+    /// a clean propagation that region can be just C, D and a point or two, and a swarm that
+    /// small (with the paper's r ≤ 0.2) rarely reaches the optimum: measured on the
+    /// experiment's 2D data, 5 particles got within 1 % of the exact minimum in 75 % of the
+    /// trials, 10 in 97 %, 20 in 100 %.
     pub min_particles: usize,
     /// Most particles (the ones nearest the approximate corner are kept); `None` = no cap,
     /// as in the paper (one particle per corner-region point).
@@ -69,7 +73,7 @@ impl Default for FitParams {
             min_side_points: 3,
             min_angle_deg: 2.0,
             include_corner_region: true,
-            min_particles: 5,
+            min_particles: 20,
             max_particles: None,
             trim: 4.0,
             rectify_with: Searcher::Pso,
@@ -93,11 +97,21 @@ impl FitParams {
     /// Checks every value's range; the error names the parameter and the accepted range.
     pub fn validate(&self) -> Result<()> {
         let p = &self.pso;
-        check("pso.w", p.w, p.w >= 0.0 && p.w < 1.0, "0 <= w < 1 (a stable swarm)")?;
+        check(
+            "pso.w",
+            p.w,
+            p.w >= 0.0 && p.w < 1.0,
+            "0 <= w < 1 (a stable swarm)",
+        )?;
         check("pso.c1", p.c1, p.c1 >= 0.0, "a finite value >= 0")?;
         check("pso.c2", p.c2, p.c2 >= 0.0, "a finite value >= 0")?;
         check("pso.r_max", p.r_max, p.r_max >= 0.0, "a finite value >= 0")?;
-        check("pso.v0_max", p.v0_max, p.v0_max >= 0.0, "a finite value >= 0")?;
+        check(
+            "pso.v0_max",
+            p.v0_max,
+            p.v0_max >= 0.0,
+            "a finite value >= 0",
+        )?;
         let g = &self.ga;
         check("ga.alpha", g.alpha, g.alpha >= 0.0, "a finite value >= 0")?;
         check(
@@ -106,10 +120,25 @@ impl FitParams {
             (0.0..=1.0).contains(&g.mutation_rate),
             "a probability in [0, 1]",
         )?;
-        check("ga.mutation_scale", g.mutation_scale, g.mutation_scale >= 0.0, "a finite value >= 0")?;
+        check(
+            "ga.mutation_scale",
+            g.mutation_scale,
+            g.mutation_scale >= 0.0,
+            "a finite value >= 0",
+        )?;
         let q = &self.propagation;
-        check("propagation.tolerance", q.tolerance, q.tolerance > 0.0, "a finite value > 0")?;
-        check("propagation.backoff", q.backoff, q.backoff >= 0.0, "a finite value >= 0")?;
+        check(
+            "propagation.tolerance",
+            q.tolerance,
+            q.tolerance > 0.0,
+            "a finite value > 0",
+        )?;
+        check(
+            "propagation.backoff",
+            q.backoff,
+            q.backoff >= 0.0,
+            "a finite value >= 0",
+        )?;
         check(
             "propagation.patience",
             q.patience as f64,
@@ -122,11 +151,27 @@ impl FitParams {
             q.init_points >= 2,
             "at least 2",
         )?;
+        check(
+            "propagation.init_elongation",
+            q.init_elongation,
+            q.init_elongation >= 1.0,
+            "a finite value >= 1",
+        )?;
         if let Some(n) = q.noise {
-            check("propagation.noise", n, n > 0.0, "a finite noise level > 0 (or leave it out)")?;
+            check(
+                "propagation.noise",
+                n,
+                n > 0.0,
+                "a finite noise level > 0 (or leave it out)",
+            )?;
         }
         let e = &self.exact;
-        check("exact.tolerance", e.tolerance, e.tolerance > 0.0, "a finite value > 0")?;
+        check(
+            "exact.tolerance",
+            e.tolerance,
+            e.tolerance > 0.0,
+            "a finite value > 0",
+        )?;
         check(
             "exact.max_iterations",
             e.max_iterations as f64,
@@ -159,7 +204,12 @@ impl FitParams {
                 "at least min_particles",
             )?;
         }
-        check("trim", self.trim, self.trim >= 0.0, "a finite value >= 0 (0 = off)")?;
+        check(
+            "trim",
+            self.trim,
+            self.trim >= 0.0,
+            "a finite value >= 0 (0 = off)",
+        )?;
         Ok(())
     }
 }
@@ -192,9 +242,17 @@ mod tests {
         let mut bad = FitParams::default();
         bad.pso.w = 1.5;
         let e = bad.validate().unwrap_err().to_string();
-        assert_eq!(e, "fit parameter pso.w = 1.5: expected 0 <= w < 1 (a stable swarm)");
+        assert_eq!(
+            e,
+            "fit parameter pso.w = 1.5: expected 0 <= w < 1 (a stable swarm)"
+        );
         let mut bad = FitParams::default();
         bad.propagation.noise = Some(f64::NAN);
-        assert!(bad.validate().unwrap_err().to_string().contains("propagation.noise = NaN"));
+        assert!(
+            bad.validate()
+                .unwrap_err()
+                .to_string()
+                .contains("propagation.noise = NaN")
+        );
     }
 }

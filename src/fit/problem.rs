@@ -49,7 +49,7 @@ impl<const D: usize> Frame<D> {
 }
 
 /// A prepared search problem in a fit's local frame: the objective with the slopes fixed,
-/// the swarm's starting points, the directions and scale of its initial velocities, and the
+/// the swarm's starting points, its frame and the scale of its initial velocities, and the
 /// point-to-line assignment. The searchers ([`super::pso::pso`], [`super::ga::ga`],
 /// [`super::scheme1::scheme1`], the exact solvers) all run on this, which is how the
 /// experiment times each one separately.
@@ -59,8 +59,8 @@ pub struct Problem<'a, const D: usize, O> {
     pub objective: &'a O,
     /// Starting particles = Scheme 1 candidates (data points, local frame).
     pub candidates: &'a [[f64; D]],
-    /// Unit side directions pointing away from the corner (initial velocity axes).
-    pub axes: &'a [[f64; D]],
+    /// The swarm's orthonormal frame (rows), attached to the corner's side directions.
+    pub basis: [[f64; D]; D],
     /// Extent of the candidates (RMS radius, local units): the initial velocity's scale.
     pub scale: f64,
     /// All input points in the local frame.
@@ -72,7 +72,10 @@ pub struct Problem<'a, const D: usize, O> {
 }
 
 /// RMS distance of `pts[idx]` from their centroid.
-pub(crate) fn rms_radius<const D: usize>(pts: &[[f64; D]], idx: impl Iterator<Item = usize> + Clone) -> f64 {
+pub(crate) fn rms_radius<const D: usize>(
+    pts: &[[f64; D]],
+    idx: impl Iterator<Item = usize> + Clone,
+) -> f64 {
     let mut n = 0usize;
     let mut c = [0.0; D];
     for i in idx.clone() {
@@ -91,8 +94,8 @@ pub(crate) fn rms_radius<const D: usize>(pts: &[[f64; D]], idx: impl Iterator<It
 }
 
 /// Grows `cand` (indices, no duplicates) to at least `min` entries with the points nearest to
-/// the origin of the local frame, then caps it at `max` keeping the nearest ones. `flag` and
-/// `order` are scratch.
+/// the centroid of the current candidates (the corner region with C and D), then caps it at
+/// `max` keeping the ones nearest to that centroid. `flag` and `order` are scratch.
 pub(crate) fn grow_and_cap<const D: usize>(
     pts: &[[f64; D]],
     cand: &mut Vec<usize>,
@@ -102,7 +105,13 @@ pub(crate) fn grow_and_cap<const D: usize>(
     order: &mut Vec<usize>,
 ) {
     let n = pts.len();
-    let r2 = |i: usize| norm2(&pts[i]);
+    let mut centre = [0.0; D];
+    for &i in cand.iter() {
+        for k in 0..D {
+            centre[k] += pts[i][k] / cand.len() as f64;
+        }
+    }
+    let r2 = |i: usize| norm2(&sub(&pts[i], &centre));
     if cand.len() < min.min(n) {
         flag.clear();
         flag.resize(n, false);

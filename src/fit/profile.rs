@@ -8,8 +8,10 @@
 //!    approximate corner) are clustered into two (spherical 2-means), a line is fitted to each
 //!    cluster, and every point goes to the nearer line. Arms are ordered so that arm 1 turns
 //!    counter-clockwise into arm 2, which does not depend on the input order.
-//! 2. Order each arm by its position along the arm, far end first, and propagate (§2.1): the
-//!    accepted points are the sides (A..C, D..B), the rest the corner region.
+//! 2. Order each arm by its position along the arm and read the profile as one polyline from
+//!    the far end A of arm 1 through the corner to the far end B of arm 2; propagate (§2.1)
+//!    from A and from B. The accepted points are the sides (A..C, D..B), the points between C
+//!    and D the corner region (if the two runs crossed, the points both accepted).
 //! 3. Fit L2 and L4 to the sides; build the constrained objective (§2); search the corner with
 //!    Scheme 1, PSO and exactly; rectify the corner-region points onto the constrained lines.
 //!
@@ -92,12 +94,14 @@ pub struct ProfileScratch {
     far: Vec<usize>,
     label: Vec<u8>,
     arm: [Vec<usize>; 2],
+    poly: Vec<usize>,
+    rev: Vec<usize>,
     t: Vec<f64>,
     res: Vec<f64>,
     buf: Vec<[f64; 2]>,
     cand_idx: Vec<usize>,
     cand: Vec<[f64; 2]>,
-    axes: Vec<[f64; 2]>,
+    basis: [[f64; 2]; 2],
     assigned: Vec<Vec<usize>>,
     flag: Vec<bool>,
     order: Vec<usize>,
@@ -114,7 +118,7 @@ impl ProfileScratch {
         Some(Problem {
             objective: &self.obj,
             candidates: &self.cand,
-            axes: &self.axes,
+            basis: self.basis,
             scale: self.cand_scale,
             points: &self.loc,
             assigned: &self.assigned,
@@ -164,7 +168,12 @@ pub fn prepare_profile_2d(
         });
     }
     // Local frame: centred on the approximate corner, unit = RMS radius around it.
-    let rms = (points.iter().map(|p| norm2(&sub(p, &approx_corner))).sum::<f64>() / n as f64).sqrt();
+    let rms = (points
+        .iter()
+        .map(|p| norm2(&sub(p, &approx_corner)))
+        .sum::<f64>()
+        / n as f64)
+        .sqrt();
     if !(rms > 0.0) || !rms.is_finite() {
         return Err(Error::Degenerate {
             what: WHAT,
@@ -209,7 +218,11 @@ pub fn prepare_profile_2d(
     let seed2 = far
         .iter()
         .copied()
-        .min_by(|&a, &b| dot(&dir_of(a), &seed1).total_cmp(&dot(&dir_of(b), &seed1)).then(a.cmp(&b)))
+        .min_by(|&a, &b| {
+            dot(&dir_of(a), &seed1)
+                .total_cmp(&dot(&dir_of(b), &seed1))
+                .then(a.cmp(&b))
+        })
         .map(dir_of)
         .unwrap_or([-1.0, 0.0]);
     let mut means = [seed1, seed2];
@@ -245,7 +258,11 @@ pub fn prepare_profile_2d(
     }; 2];
     for k in 0..2 {
         s.buf.clear();
-        s.buf.extend(far.iter().filter(|&&i| s.label[i] == k as u8).map(|&i| loc[i]));
+        s.buf.extend(
+            far.iter()
+                .filter(|&&i| s.label[i] == k as u8)
+                .map(|&i| loc[i]),
+        );
         if s.buf.len() < 2 {
             return Err(Error::Degenerate {
                 what: WHAT,
@@ -297,37 +314,67 @@ pub fn prepare_profile_2d(
     };
     let sigma = sigma.max(1e-12);
 
-    // 2. Propagation from each far end.
-    let mut accepted = [0usize; 2];
-    for k in 0..2 {
-        accepted[k] = propagate_run(loc, &s.arm[k], sigma, &params.propagation);
-        if accepted[k] < min_side {
+    // 2. Propagation (§2.1) along the profile read as one polyline, A = far end of arm 1 ...
+    // apex ... B = far end of arm 2, from both ends, as in the paper's Figure 3: each
+    // propagation runs towards and, until the turn is detected, past the corner, so the points
+    // between the two stops C and D surround the corner.
+    s.poly.clear();
+    s.poly.extend_from_slice(&s.arm[0]);
+    s.poly.extend(s.arm[1].iter().rev());
+    s.rev.clear();
+    s.rev.extend(s.poly.iter().rev());
+    let m = s.poly.len();
+    let a = propagate_run(
+        loc,
+        &s.poly,
+        sigma,
+        &params.propagation,
+        Some(arm_line[0].direction),
+    );
+    let b = propagate_run(
+        loc,
+        &s.rev,
+        sigma,
+        &params.propagation,
+        Some(arm_line[1].direction),
+    );
+    // Side 1 = poly[..s1_end], side 2 = poly[s2_start..]; if the two runs crossed, the points
+    // both accepted go to the corner region.
+    let (s1_end, s2_start) = (a.min(m - b), a.max(m - b));
+    for (k, got) in [(0, s1_end), (1, m - s2_start)] {
+        if got < min_side {
             return Err(Error::SideTooSmall {
                 fit: WHAT,
                 side: k + 1,
                 needed: min_side,
-                got: accepted[k],
+                got,
                 hint: "the side is too short or turns at once; widen the slab or lower \
                        min_side_points",
             });
         }
     }
-    for k in 0..2 {
-        out.sides[k].clear();
-        out.sides[k].extend_from_slice(&s.arm[k][..accepted[k]]);
-    }
-    out.c = s.arm[0][accepted[0] - 1];
-    out.d = s.arm[1][accepted[1] - 1];
+    out.sides[0].clear();
+    out.sides[0].extend_from_slice(&s.poly[..s1_end]);
+    out.sides[1].clear();
+    out.sides[1].extend(s.poly[s2_start..].iter().rev());
+    out.c = s.poly[s1_end - 1];
+    out.d = s.poly[s2_start];
     out.corner_region.clear();
-    for k in 0..2 {
-        out.corner_region.extend_from_slice(&s.arm[k][accepted[k]..]);
-    }
+    out.corner_region
+        .extend_from_slice(&s.poly[s1_end..s2_start]);
 
     // 3. Local fits L2, L4 (outward).
     let mut local = [arm_line[0]; 2];
     for k in 0..2 {
-        local[k] = side_fit(loc, &out.sides[k], params.line_form, params.trim, sigma, &mut s.buf)?
-            .oriented(&arm_line[k].direction);
+        local[k] = side_fit(
+            loc,
+            &out.sides[k],
+            params.line_form,
+            params.trim,
+            sigma,
+            &mut s.buf,
+        )?
+        .oriented(&arm_line[k].direction);
     }
     if cross2(&local[0].direction, &local[1].direction).abs() < sin_min {
         return Err(parallel_sides());
@@ -349,8 +396,17 @@ pub fn prepare_profile_2d(
     s.cand.clear();
     s.cand.extend(s.cand_idx.iter().map(|&i| loc[i]));
     s.cand_scale = rms_radius(loc, s.cand_idx.iter().copied()).max(sigma);
-    s.axes.clear();
-    s.axes.extend(local.iter().map(|l| l.direction));
+    // The swarm's frame: first axis along the bisector towards the tip (the abnormal zone lies
+    // inside the angle, the corner at its tip), second axis 90° counter-clockwise from it.
+    let tip = unit(&scale(
+        &[
+            local[0].direction[0] + local[1].direction[0],
+            local[0].direction[1] + local[1].direction[1],
+        ],
+        -1.0,
+    ))
+    .unwrap_or([-local[0].direction[1], local[0].direction[0]]);
+    s.basis = [tip, [-tip[1], tip[0]]];
 
     // Objective: side points to their own line, corner-region points to the nearer local line.
     s.assigned.resize_with(2, Vec::new);
@@ -370,7 +426,10 @@ pub fn prepare_profile_2d(
             .add_line(&local[k].direction, s.assigned[k].iter().map(|&i| &loc[i]));
     }
 
-    out.local = [frame.line_to_input(&local[0]), frame.line_to_input(&local[1])];
+    out.local = [
+        frame.line_to_input(&local[0]),
+        frame.line_to_input(&local[1]),
+    ];
     out.noise = frame.length_to_input(sigma);
     out.candidates.clear();
     out.candidates.extend_from_slice(&s.cand_idx);
@@ -411,7 +470,7 @@ pub fn solve_profile_2d<R: Rng + ?Sized>(
     let p = pso(
         &s.obj,
         &s.cand,
-        &s.axes,
+        &s.basis,
         s.cand_scale,
         &params.pso,
         params.pso.iterations_2d,

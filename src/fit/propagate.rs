@@ -5,8 +5,10 @@
 //!
 //! "Significantly" is measured against the noise level, not as an absolute angle: the tangent
 //! has turned when the next `patience` points all leave the current line by more than
-//! `tolerance` · σ, on the same side (a turn pushes consecutive points to one side; noise does
-//! not). The last points before the stop that already lean to that side by more than
+//! `tolerance` times their expected deviation, on the same side (a turn pushes consecutive
+//! points to one side; noise does not). The expected deviation is σ widened by the current
+//! line's own uncertainty at the point (the regression prediction interval), so a short,
+//! still-uncertain starting line does not stop the propagation by mistake. The last points before the stop that already lean to that side by more than
 //! `backoff` · σ are handed back to the corner region, since the turn starts before it is
 //! detected. σ is given by the caller or estimated from the residuals of line fits to the far
 //! halves of the sides (median absolute residual, scaled for a normal distribution).
@@ -35,8 +37,10 @@ pub struct PropagationParams {
     /// After stopping, trailing points leaning to the turn's side by more than `backoff` · σ
     /// go back to the corner region. 0 disables.
     pub backoff: f64,
-    /// Points of the starting line fit.
+    /// Fewest points of the starting line fit.
     pub init_points: usize,
+    /// The starting line grows until its RMS length is this many times its RMS width.
+    pub init_elongation: f64,
     /// Noise level σ (per coordinate, input units); estimated from the data when absent.
     pub noise: Option<f64>,
 }
@@ -48,6 +52,7 @@ impl Default for PropagationParams {
             patience: 3,
             backoff: 1.0,
             init_points: 4,
+            init_elongation: 4.0,
             noise: None,
         }
     }
@@ -91,12 +96,15 @@ pub fn noise_from_residuals<const D: usize>(res: &mut [f64]) -> Option<f64> {
 
 /// Grows a line along `order` (indices into `pts`, from the far end towards the corner) and
 /// returns how many of its points are accepted before the tangent turns (all of them when it
-/// never does). `sigma` is the noise level in the units of `pts`.
+/// never does). `sigma` is the noise level in the units of `pts`. `prior` is the side's
+/// approximate direction (from a fit to many of its points); without it the first quarter of
+/// the run is fitted for one.
 pub fn propagate_run<const D: usize>(
     pts: &[[f64; D]],
     order: &[usize],
     sigma: f64,
     params: &PropagationParams,
+    prior: Option<[f64; D]>,
 ) -> usize {
     let m = order.len();
     let init = params.init_points.max(2);
@@ -104,34 +112,71 @@ pub fn propagate_run<const D: usize>(
         return m;
     }
     let thr = params.tolerance * sigma;
-    let mut acc = LineAcc::default();
-    let mut i = 0;
-    let mut dir = None;
-    while i < m && (i < init || dir.is_none()) {
-        acc.push(&pts[order[i]]);
-        i += 1;
-        if i >= init {
-            dir = acc.fit().map(|(_, l)| l.direction);
+    let prior = prior.and_then(|d| super::vec::unit(&d)).or_else(|| {
+        let mut acc = LineAcc::default();
+        for &k in &order[..(m / 4).max(init)] {
+            acc.push(&pts[k]);
         }
-    }
-    let Some(mut dir) = dir else {
+        acc.fit().map(|(_, l)| l.direction)
+    });
+    let Some(prior) = prior else {
         return m;
     };
-    let resid = |acc: &LineAcc<D>, dir: &[f64; D], p: &[f64; D]| reject(&sub(p, &acc.centroid()), dir);
+    // The starting line: at least `init_points`, grown until the points are elongated enough
+    // along the side's direction (RMS length >= `init_elongation` x RMS width) for a line fit
+    // to mean something. With noise comparable to the spacing, the first few points are a
+    // blob whose own principal axis can be anything, even across the side. Never more than
+    // two thirds of the run.
+    let cap = (2 * m / 3).max(init);
+    let e2 = params.init_elongation * params.init_elongation;
+    let mut acc = LineAcc::default();
+    let mut i = 0;
     while i < m {
-        let r = resid(&acc, &dir, &pts[order[i]]);
-        if norm(&r) > thr {
+        acc.push(&pts[order[i]]);
+        i += 1;
+        if i < init {
+            continue;
+        }
+        let s = acc.scatter();
+        let along: f64 = (0..D).map(|a| prior[a] * dot(&s[a], &prior)).sum();
+        let trace: f64 = (0..D).map(|a| s[a][a]).sum();
+        if along >= e2 * (trace - along).max(0.0) || i >= cap {
+            break;
+        }
+    }
+    let mut dir = match acc.fit() {
+        // The fitted axis, unless the points are still too blob-like to have turned it
+        // reliably (more than 30° off the prior).
+        Some((_, l)) if dot(&l.direction, &prior).abs() >= 0.866 => l.direction,
+        _ => prior,
+    };
+    // Deviation of p from the current line, and the standard deviation expected for it:
+    // noise plus the line's own uncertainty at p (the regression prediction interval,
+    // σ² (1 + 1/m + τ² / Σ τ_i²) with τ the position along the line from the centroid).
+    let test = |acc: &LineAcc<D>, dir: &[f64; D], p: &[f64; D]| {
+        let c = acc.centroid();
+        let v = sub(p, &c);
+        let tau = dot(&v, dir);
+        let s = acc.scatter();
+        let stt: f64 = (0..D).map(|a| dir[a] * dot(&s[a], dir)).sum();
+        let m = acc.len() as f64;
+        let spread = (1.0 + 1.0 / m + if stt > 0.0 { tau * tau / stt } else { 0.0 }).sqrt();
+        (reject(&v, dir), spread)
+    };
+    while i < m {
+        let (r, spread) = test(&acc, &dir, &pts[order[i]]);
+        if norm(&r) > thr * spread {
             // A turn, or one noisy point? Look at the next points against the same line.
             let end = (i + params.patience.max(1)).min(m);
             let turned = (i + 1..end).all(|k| {
-                let rk = resid(&acc, &dir, &pts[order[k]]);
-                norm(&rk) > thr && dot(&rk, &r) > 0.0
+                let (rk, sk) = test(&acc, &dir, &pts[order[k]]);
+                norm(&rk) > thr * sk && dot(&rk, &r) > 0.0
             });
             if turned {
                 let mut stop = i;
                 if params.backoff > 0.0 {
                     while stop > init {
-                        let rb = resid(&acc, &dir, &pts[order[stop - 1]]);
+                        let (rb, _) = test(&acc, &dir, &pts[order[stop - 1]]);
                         if dot(&rb, &r) > 0.0 && norm(&rb) > params.backoff * sigma {
                             stop -= 1;
                         } else {
@@ -237,14 +282,10 @@ pub fn propagate_polyline<const D: usize>(
     let sigma = sigma.max(1e-12 * extent(pts));
     let fwd: Vec<usize> = (0..m).collect();
     let bwd: Vec<usize> = (0..m).rev().collect();
-    let a = propagate_run(pts, &fwd, sigma, params);
-    let b = propagate_run(pts, &bwd, sigma, params);
+    let a = propagate_run(pts, &fwd, sigma, params, None);
+    let b = propagate_run(pts, &bwd, sigma, params, None);
     // Side 1 is [0, a), side 2 is [m - b, m); overlapping acceptance goes to the corner.
-    let (s1_end, s2_start) = if a <= m - b {
-        (a, m - b)
-    } else {
-        (m - b, a)
-    };
+    let (s1_end, s2_start) = if a <= m - b { (a, m - b) } else { (m - b, a) };
     if s1_end < min_side || m - s2_start < min_side {
         return Err(Error::TooFewPoints {
             what: "line propagation: points on a side of the polyline",
@@ -275,7 +316,11 @@ pub(crate) fn extent<const D: usize>(pts: &[[f64; D]]) -> f64 {
     }
     let n = pts.len() as f64;
     let c: [f64; D] = std::array::from_fn(|k| pts.iter().map(|p| p[k]).sum::<f64>() / n);
-    (pts.iter().map(|p| super::vec::norm2(&sub(p, &c))).sum::<f64>() / n).sqrt()
+    (pts.iter()
+        .map(|p| super::vec::norm2(&sub(p, &c)))
+        .sum::<f64>()
+        / n)
+        .sqrt()
 }
 
 #[cfg(test)]
@@ -321,8 +366,16 @@ mod tests {
         assert!(s.corner.is_empty());
         let (pts, _) = vee(90.0, 40, 0.02, 2);
         let s = propagate_polyline(&pts, &PropagationParams::default(), LineForm::Tls, 3).unwrap();
-        assert!(s.sides[0].end >= 36 && s.sides[0].end <= 40, "{:?}", s.sides);
-        assert!(s.sides[1].start >= 40 && s.sides[1].start <= 44, "{:?}", s.sides);
+        assert!(
+            s.sides[0].end >= 36 && s.sides[0].end <= 40,
+            "{:?}",
+            s.sides
+        );
+        assert!(
+            s.sides[1].start >= 40 && s.sides[1].start <= 44,
+            "{:?}",
+            s.sides
+        );
         assert!((s.noise - 0.02).abs() < 0.01, "noise {}", s.noise);
     }
 
@@ -331,14 +384,26 @@ mod tests {
         // 150° profile: a 30° turn, noise 0.02 on a 0.25 spacing.
         let (pts, _) = vee(150.0, 40, 0.02, 3);
         let s = propagate_polyline(&pts, &PropagationParams::default(), LineForm::Tls, 3).unwrap();
-        assert!(s.sides[0].end >= 33 && s.sides[0].end <= 41, "{:?}", s.sides);
-        assert!(s.sides[1].start >= 39 && s.sides[1].start <= 47, "{:?}", s.sides);
+        assert!(
+            s.sides[0].end >= 33 && s.sides[0].end <= 41,
+            "{:?}",
+            s.sides
+        );
+        assert!(
+            s.sides[1].start >= 39 && s.sides[1].start <= 47,
+            "{:?}",
+            s.sides
+        );
         // Local fits follow the true directions within a degree, pointing away from the corner.
         let (pts2, dirs) = vee(150.0, 40, 0.02, 3);
         assert_eq!(pts, pts2);
         for (l, d) in s.local.iter().zip(dirs) {
             let c = l.direction[0] * d[1] - l.direction[1] * d[0];
-            assert!(c.abs() < 0.02 && dot(&l.direction, &d) > 0.0, "{:?} vs {d:?}", l.direction);
+            assert!(
+                c.abs() < 0.02 && dot(&l.direction, &d) > 0.0,
+                "{:?} vs {d:?}",
+                l.direction
+            );
         }
     }
 
@@ -356,11 +421,17 @@ mod tests {
         let mut pts: Vec<[f64; 2]> = (0..30).map(|i| [i as f64, 0.0]).collect();
         pts[10][1] = 5.0;
         let order: Vec<usize> = (0..30).collect();
-        assert_eq!(propagate_run(&pts, &order, 0.01, &PropagationParams::default()), 30);
+        assert_eq!(
+            propagate_run(&pts, &order, 0.01, &PropagationParams::default(), None),
+            30
+        );
         // A genuine turn stops it right before the turn.
         let mut bent: Vec<[f64; 2]> = (0..20).map(|i| [i as f64, 0.0]).collect();
         bent.extend((1..10).map(|i| [19.0 + i as f64, i as f64]));
         let order: Vec<usize> = (0..bent.len()).collect();
-        assert_eq!(propagate_run(&bent, &order, 0.01, &PropagationParams::default()), 20);
+        assert_eq!(
+            propagate_run(&bent, &order, 0.01, &PropagationParams::default(), None),
+            20
+        );
     }
 }

@@ -6,14 +6,16 @@
 //! The paper's defaults: w = 0.6, c1 = c2 = 2, r1, r2 ~ U[0, 0.2], initial velocity ~ U[0, 0.2],
 //! 20 iterations in 2D and 10 in 3D.
 //!
-//! Two choices make the result independent of units and orientation (the paper's ranges are
-//! absolute and per-axis): r1 and r2 are drawn once per particle and iteration (a scalar, so
-//! the update commutes with rotations), and the initial velocity is Σ_j U_j[0, v0_max] · s · a_j
-//! with a_j the unit directions of the side lines (pointing away from the corner) and s the
-//! corner region's extent — the paper's "[0, 0.2] per coordinate" read in the frame of the
-//! corner's own lines. All random draws come from the caller's RNG, in a fixed order.
+//! The paper's ranges are absolute and per axis. To make the result independent of units and
+//! orientation, the swarm runs in coordinates of an orthonormal frame attached to the corner
+//! (built by the caller from the side directions, e.g. its first axis pointing along the
+//! bisector towards the tip), r1 and r2 are drawn per coordinate of that frame, and the
+//! initial velocity's coordinates are U[0, v0_max] · s with s the corner region's extent. (A
+//! rotation-invariant variant with one scalar r per particle confines the swarm to the span of
+//! its initial spread; measured on 3D corners of two edges, whose data is nearly planar, it
+//! stalls off the optimum.) All random draws come from the caller's RNG, in a fixed order.
 //!
-//! Inputs: an [`Objective`], the initial positions, the velocity axes and scale, parameters and
+//! Inputs: an [`Objective`], the initial positions, the frame and extent, parameters and
 //! an RNG. Output: a [`Search`] (best point, its error, evaluations, the iteration it converged
 //! at) and the per-iteration history of the best error (index 0 = initial swarm).
 
@@ -21,7 +23,7 @@ use rand::{Rng, RngExt};
 use serde::{Deserialize, Serialize};
 
 use super::objective::Objective;
-use super::vec::{axpy, sub};
+use super::vec::{axpy, dot};
 
 /// PSO parameters (paper §3).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -102,15 +104,32 @@ pub struct SwarmScratch<const D: usize> {
     best_err: Vec<f64>,
 }
 
-/// Runs the particle swarm. `init` are the particles' starting positions (at least one),
-/// `axes` the directions the initial velocity is drawn along, `scale` the corner region's
-/// extent, `iterations` the number of updates. `history` is cleared and receives
-/// `iterations + 1` best errors.
+/// Coordinates of `q` in the orthonormal `basis` (rows).
+#[inline]
+pub(crate) fn to_basis<const D: usize>(basis: &[[f64; D]; D], q: &[f64; D]) -> [f64; D] {
+    std::array::from_fn(|k| dot(&basis[k], q))
+}
+
+/// The point with coordinates `y` in the orthonormal `basis` (rows).
+#[inline]
+pub(crate) fn from_basis<const D: usize>(basis: &[[f64; D]; D], y: &[f64; D]) -> [f64; D] {
+    let mut q = [0.0; D];
+    for k in 0..D {
+        q = axpy(&q, y[k], &basis[k]);
+    }
+    q
+}
+
+/// Runs the particle swarm. `init` are the particles' starting positions (at least one);
+/// `basis` is the orthonormal frame (rows) whose coordinates the swarm updates one by one:
+/// r1 and r2 are drawn per coordinate as in the usual reading of Eq. 9, and the initial
+/// velocity has coordinates U[0, v0_max] · `scale`. `iterations` is the number of updates.
+/// `history` is cleared and receives `iterations + 1` best errors.
 #[allow(clippy::too_many_arguments)]
 pub fn pso<const D: usize, O: Objective<D> + ?Sized, R: Rng + ?Sized>(
     obj: &O,
     init: &[[f64; D]],
-    axes: &[[f64; D]],
+    basis: &[[f64; D]; D],
     scale: f64,
     params: &PsoParams,
     iterations: usize,
@@ -125,17 +144,13 @@ pub fn pso<const D: usize, O: Objective<D> + ?Sized, R: Rng + ?Sized>(
     }
     let s = &mut *scratch;
     s.pos.clear();
-    s.pos.extend_from_slice(init);
+    s.pos.extend(init.iter().map(|q| to_basis(basis, q)));
     s.best.clear();
-    s.best.extend_from_slice(init);
+    s.best.extend_from_slice(&s.pos);
     s.vel.clear();
     s.best_err.clear();
     for q in init {
-        let mut v = [0.0; D];
-        for a in axes {
-            let u = rng.random::<f64>() * params.v0_max * scale;
-            v = axpy(&v, u, a);
-        }
+        let v: [f64; D] = std::array::from_fn(|_| rng.random::<f64>() * params.v0_max * scale);
         s.vel.push(v);
         s.best_err.push(obj.error(q));
     }
@@ -145,18 +160,19 @@ pub fn pso<const D: usize, O: Objective<D> + ?Sized, R: Rng + ?Sized>(
     for _ in 0..iterations {
         let gbest = s.best[g];
         for i in 0..n {
-            let r1 = rng.random::<f64>() * params.r_max;
-            let r2 = rng.random::<f64>() * params.r_max;
             let q = s.pos[i];
-            let to_own = sub(&s.best[i], &q);
-            let to_swarm = sub(&gbest, &q);
-            let v: [f64; D] = std::array::from_fn(|k| {
-                params.w * s.vel[i][k] + params.c1 * r1 * to_own[k] + params.c2 * r2 * to_swarm[k]
-            });
+            let mut v = [0.0; D];
+            for k in 0..D {
+                let r1 = rng.random::<f64>() * params.r_max;
+                let r2 = rng.random::<f64>() * params.r_max;
+                v[k] = params.w * s.vel[i][k]
+                    + params.c1 * r1 * (s.best[i][k] - q[k])
+                    + params.c2 * r2 * (gbest[k] - q[k]);
+            }
             let q: [f64; D] = std::array::from_fn(|k| q[k] + v[k]);
             s.vel[i] = v;
             s.pos[i] = q;
-            let e = obj.error(&q);
+            let e = obj.error(&from_basis(basis, &q));
             evaluations += 1;
             if e < s.best_err[i] {
                 s.best_err[i] = e;
@@ -167,7 +183,7 @@ pub fn pso<const D: usize, O: Objective<D> + ?Sized, R: Rng + ?Sized>(
         history.push(s.best_err[g]);
     }
     Search {
-        point: s.best[g],
+        point: from_basis(basis, &s.best[g]),
         error: s.best_err[g],
         evaluations,
         converged_at: converged_at(history),
@@ -217,7 +233,10 @@ mod tests {
         );
         assert_eq!(hist.len(), 21);
         assert!(hist.windows(2).all(|w| w[1] <= w[0]));
-        let start = init.iter().map(|q| Bowl.error(q)).fold(f64::INFINITY, f64::min);
+        let start = init
+            .iter()
+            .map(|q| Bowl.error(q))
+            .fold(f64::INFINITY, f64::min);
         assert_eq!(hist[0], start);
         assert!(r.error < 0.1 * start, "{} vs {start}", r.error);
         assert_eq!(r.evaluations, 4 + 4 * 20);

@@ -43,11 +43,6 @@ pub(crate) fn norm<const D: usize>(a: &[f64; D]) -> f64 {
     norm2(a).sqrt()
 }
 
-#[inline]
-pub(crate) fn dist<const D: usize>(a: &[f64; D], b: &[f64; D]) -> f64 {
-    norm(&sub(a, b))
-}
-
 /// `a` scaled to unit length; `None` for a zero or non-finite vector.
 #[inline]
 pub(crate) fn unit<const D: usize>(a: &[f64; D]) -> Option<[f64; D]> {
@@ -163,11 +158,7 @@ pub(crate) fn solve3(m: &[[f64; 3]; 3], b: &[f64; 3]) -> Option<[f64; 3]> {
     // Columns of the inverse are the cross products of rows (m is symmetric).
     let c1 = cross(&m[2], &m[0]);
     let c2 = cross(&m[0], &m[1]);
-    Some([
-        dot(&c0, b) / det,
-        dot(&c1, b) / det,
-        dot(&c2, b) / det,
-    ])
+    Some([dot(&c0, b) / det, dot(&c1, b) / det, dot(&c2, b) / det])
 }
 
 /// An orthonormal pair spanning the plane perpendicular to the unit vector `d` (Frisvad's
