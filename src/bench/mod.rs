@@ -41,8 +41,9 @@ use crate::synth::geom::{V3, add, derive, dist, dot, norm};
 use crate::synth::{self, GroundTruth, Part, PointTruth, Sampling, SynthParams};
 use score::{EdgeScore, polyline_segments, same_bits, score_edges, stats};
 
-/// Points per case by default: the whole suite took 46 s on two (shared) cores when this was
-/// chosen, 72 % of it in the features stage; 200,000 took 16 s, 1,000,000 took 98 s.
+/// Points per case by default: the whole suite took 32–46 s on two shared cores when this was
+/// chosen, three quarters of it in the pipeline's features stage (200,000 points: 16 s;
+/// 1,000,000: 98 s).
 pub const DEFAULT_POINTS: usize = 500_000;
 /// A found corner matches a true one within this many spacings.
 pub const CORNER_TOL: f64 = 3.0;
