@@ -31,6 +31,8 @@ pub enum Command {
     Info(InfoArgs),
     /// Reproduce the paper's experiments (§4) on generated data.
     Experiment(ExperimentArgs),
+    /// Score the pipeline against ground truth on a suite of simulated scans.
+    Bench(BenchArgs),
 }
 
 #[derive(Debug, Args)]
@@ -167,6 +169,36 @@ pub struct ExperimentArgs {
     pub json: bool,
 }
 
+#[derive(Debug, Args)]
+pub struct BenchArgs {
+    /// Points per case (the 30k box keeps 30,000).
+    #[arg(long, default_value_t = sharpedge::bench::DEFAULT_POINTS)]
+    pub points: usize,
+    /// Cases to run, comma-separated (default: all): box, lblock, step, wedge, prism6,
+    /// prism8, pyramid, sphere, box-noise0.5, box-noise1.0, box-30k, box-far, fandisk, anchor.
+    #[arg(long, value_delimiter = ',')]
+    pub cases: Option<Vec<String>>,
+    /// Pipeline file (default: the built-in defaults, the same as pipeline.toml's).
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// Worker threads; overrides `threads` of the config (0 = all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Seed of the simulated scans (each case derives its own from it and its name).
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Print the JSON on stdout instead of the table.
+    #[arg(long)]
+    pub json: bool,
+    /// Write the JSON (every metric per case) to this file.
+    #[arg(long, default_value = "bench.json")]
+    pub out: PathBuf,
+    /// The shared data folder holding cad/fandisk.off and cad/anchor_dense.off (default:
+    /// ../shared/data); the mesh cases are skipped when it is absent.
+    #[arg(long)]
+    pub data: Option<PathBuf>,
+}
+
 /// Runs the parsed command.
 pub fn dispatch(cli: &Cli) -> anyhow::Result<()> {
     match &cli.command {
@@ -174,6 +206,7 @@ pub fn dispatch(cli: &Cli) -> anyhow::Result<()> {
         Command::Synth(a) => synth(cli, a),
         Command::Info(a) => info(cli, a),
         Command::Experiment(a) => experiment(cli, a),
+        Command::Bench(a) => bench(cli, a),
     }
 }
 
@@ -387,6 +420,44 @@ fn experiment(cli: &Cli, a: &ExperimentArgs) -> anyhow::Result<()> {
         for r in &reports {
             println!("{}", r.table());
         }
+    }
+    Ok(())
+}
+
+fn bench(_cli: &Cli, a: &BenchArgs) -> anyhow::Result<()> {
+    let mut settings = match &a.config {
+        Some(path) => sharpedge::config::load(path)?,
+        None => sharpedge::config::Settings::default(),
+    };
+    if let Some(t) = a.threads {
+        settings.threads = t;
+    }
+    // Fail on an unwritable --out now, not after the whole suite.
+    let dir = match a.out.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => std::path::Path::new("."),
+    };
+    tempfile::NamedTempFile::new_in(dir)
+        .map_err(|e| sharpedge::Error::io(dir, "cannot write into the folder of --out", e))?;
+    let report = sharpedge::bench::run(&sharpedge::bench::BenchOptions {
+        cases: a.cases.clone(),
+        points: a.points,
+        seed: a.seed,
+        threads: settings.threads,
+        config: a.config.clone(),
+        data: a.data.clone().or_else(sharpedge::bench::default_data_dir),
+        settings,
+    })?;
+    let text = serde_json::to_string_pretty(&report)? + "\n";
+    sharpedge::io::write_atomic(&a.out, |w| {
+        w.write_all(text.as_bytes())
+            .map_err(|e| sharpedge::Error::io(&a.out, "cannot write bench results", e))
+    })?;
+    if a.json {
+        print!("{text}");
+    } else {
+        print!("{}", sharpedge::bench::table(&report));
+        println!("wrote {}", a.out.display());
     }
     Ok(())
 }

@@ -5,6 +5,7 @@
 //! and calls in here. See DESIGN.md in the project's shared folder for the method and the
 //! output contract.
 
+pub mod bench;
 pub mod cloud;
 pub mod config;
 pub mod corners;

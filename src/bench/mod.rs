@@ -1,0 +1,1271 @@
+//! The accuracy benchmark: the pipeline on a suite of simulated scans, scored against their
+//! ground truth (`sharpedge bench`).
+//!
+//! Input: [`BenchOptions`] — which cases, how many points, the seed of the simulated scans,
+//! the pipeline settings, the thread count and where the CAD meshes are. Each case is made in
+//! memory by [`crate::synth`], run through [`crate::pipeline::process`] and scored. Output: a
+//! [`BenchReport`] with every metric per case (serialised as the bench JSON), and
+//! [`table`], the text the command prints.
+//!
+//! All lengths are in units of the case's true spacing `h` (the synth grid pitch). Metrics
+//! (see [`score`] for the geometry, [`oracle`] for the reference):
+//! - corners: one-to-one matches within [`CORNER_TOL`] h; recall, precision, error of the
+//!   particle swarm's corner and, on the same matches, of Scheme 1 and of the exact optimum;
+//! - edges: recall = share of the true edge length within [`EDGE_TOL`] h of a found edge,
+//!   precision = share of the found edge length within [`EDGE_TOL`] h of a true edge (both
+//!   exact), RMS distance of the found edges' matched part to the true edges (sampled every
+//!   [`SAMPLE_STEP`] h);
+//! - rectification: mean distance of the true abnormal-zone points to the true surface before
+//!   and after, and how many points far from every edge changed at all;
+//! - the oracle (polyhedral parts only): planes fitted to each true face's points far from the
+//!   edges, intersected; our errors are also given as ratios to it.
+//!
+//! A case that fails to generate or to run is reported with its error, not fatal: the bench
+//! is an instrument, one broken case must not hide the others.
+
+pub mod oracle;
+pub mod score;
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use rayon::prelude::*;
+use serde::Serialize;
+
+use crate::config::Settings;
+use crate::error::{Error, Result};
+use crate::pipeline::{self, LapClock, Outcome};
+use crate::progress::Progress;
+use crate::report::CornerOut;
+use crate::synth::geom::{V3, add, derive, dist, dot, norm};
+use crate::synth::{self, GroundTruth, Part, PointTruth, Sampling, SynthParams};
+use score::{EdgeScore, polyline_segments, same_bits, score_edges, stats};
+
+/// Points per case by default: the whole suite took 32–46 s on two shared cores when this was
+/// chosen, three quarters of it in the pipeline's features stage (200,000 points: 16 s;
+/// 1,000,000: 98 s).
+pub const DEFAULT_POINTS: usize = 500_000;
+/// A found corner matches a true one within this many spacings.
+pub const CORNER_TOL: f64 = 3.0;
+/// Edge recall and precision count length within this many spacings.
+pub const EDGE_TOL: f64 = 2.0;
+/// Points farther than this many spacings from every edge (and not abnormal) must not move.
+pub const AWAY: f64 = 4.0;
+/// Found edges are sampled this often (spacings) for their distance to the true edges.
+pub const SAMPLE_STEP: f64 = 0.1;
+
+/// The acceptance thresholds of issue 4.
+pub mod limits {
+    /// Polyhedral parts: corner recall and precision.
+    pub const CORNER_RECALL: f64 = 1.0;
+    pub const CORNER_PRECISION: f64 = 1.0;
+    /// Polyhedral parts: edge recall and precision.
+    pub const EDGE_RECALL: f64 = 0.98;
+    pub const EDGE_PRECISION: f64 = 0.98;
+    /// Polyhedral parts with noise 0.15 h: mean corner error and edge RMS, in spacings.
+    pub const CORNER_ERROR: f64 = 0.05;
+    pub const EDGE_RMS: f64 = 0.03;
+    /// Every part: mean distance of abnormal points to the surface, after / before.
+    pub const RECTIFY_RATIO: f64 = 0.3;
+    /// Curved meshes (fandisk, anchor): edge recall and precision.
+    pub const CURVED_EDGE: f64 = 0.9;
+}
+
+/// What the thresholds expect of a case.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Kind {
+    /// Flat faces and straight edges: every corner and edge found; the oracle is defined.
+    Polyhedral,
+    /// No sharp feature at all (the sphere): nothing may be found.
+    Smooth,
+    /// Curved faces and curved sharp edges (CAD meshes): edges found, no oracle.
+    Curved,
+}
+
+/// One case of the suite.
+#[derive(Debug, Clone)]
+pub struct Case {
+    pub name: &'static str,
+    pub description: &'static str,
+    pub kind: Kind,
+    /// Whether the accuracy thresholds (corner error, edge RMS) apply.
+    pub accuracy: bool,
+    pub params: SynthParams,
+}
+
+/// A case left out, and why.
+#[derive(Debug, Clone, Serialize)]
+pub struct Skipped {
+    pub case: String,
+    pub reason: String,
+}
+
+/// The cases in suite order: name, description, kind, whether accuracy thresholds apply.
+const SUITE: [(&str, &str, Kind, bool); 14] = [
+    (
+        "box",
+        "box, σ 0.15 h, rounded 1.5 h",
+        Kind::Polyhedral,
+        true,
+    ),
+    ("lblock", "L-block (concave edge)", Kind::Polyhedral, true),
+    ("step", "stepped block, 3 steps", Kind::Polyhedral, true),
+    ("wedge", "wedge, 30° apex edge", Kind::Polyhedral, true),
+    (
+        "prism6",
+        "hexagonal prism, 120° edges",
+        Kind::Polyhedral,
+        true,
+    ),
+    (
+        "prism8",
+        "octagonal prism, 135° edges",
+        Kind::Polyhedral,
+        true,
+    ),
+    (
+        "pyramid",
+        "square pyramid, 4-edge apex",
+        Kind::Polyhedral,
+        true,
+    ),
+    ("sphere", "sphere, no sharp feature", Kind::Smooth, false),
+    ("box-noise0.5", "box, σ 0.5 h", Kind::Polyhedral, false),
+    ("box-noise1.0", "box, σ 1.0 h", Kind::Polyhedral, false),
+    ("box-30k", "box, 30,000 points", Kind::Polyhedral, true),
+    (
+        "box-far",
+        "box 4,000,000 units from the origin",
+        Kind::Polyhedral,
+        true,
+    ),
+    ("fandisk", "fandisk mesh (curved)", Kind::Curved, false),
+    ("anchor", "anchor mesh (curved)", Kind::Curved, false),
+];
+
+/// The names `--cases` accepts, in suite order.
+pub fn case_names() -> Vec<&'static str> {
+    SUITE.iter().map(|c| c.0).collect()
+}
+
+/// The suite's noise and rounding, in spacings.
+const NOISE: f64 = 0.15;
+const ROUND: f64 = 1.5;
+/// Where the far box is: 4,000,000 units from the origin, in x and y like georeferenced data.
+const FAR: V3 = [2_400_000.0, 3_200_000.0, 0.0];
+
+/// FNV-1a of the case name, so a case keeps its seed whatever else is selected.
+fn name_hash(name: &str) -> u64 {
+    name.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| {
+        (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
+    })
+}
+
+/// The data folder: `../shared/data` from the working directory, else next to the crate's
+/// sources (the build's own checkout); `None` when neither exists.
+pub fn default_data_dir() -> Option<PathBuf> {
+    [
+        PathBuf::from("../shared/data"),
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data"),
+    ]
+    .into_iter()
+    .find(|p| p.is_dir())
+}
+
+/// Builds the selected cases (all when `names` is `None`). Mesh cases whose file is missing
+/// are skipped with a note; an unknown name is an error listing the valid ones.
+pub fn suite(
+    names: Option<&[String]>,
+    points: usize,
+    seed: u64,
+    data: Option<&Path>,
+) -> Result<(Vec<Case>, Vec<Skipped>)> {
+    let selected: Vec<&(&str, &str, Kind, bool)> = match names {
+        None => SUITE.iter().collect(),
+        Some(list) => {
+            let mut out = Vec::new();
+            for n in list {
+                let n = n.trim();
+                let c = SUITE
+                    .iter()
+                    .find(|c| c.0 == n)
+                    .ok_or_else(|| Error::Usage {
+                        option: "--cases".into(),
+                        message: format!(
+                            "unknown case {n:?}; the cases are {}",
+                            case_names().join(", ")
+                        ),
+                    })?;
+                if !out.iter().any(|o: &&(&str, &str, Kind, bool)| o.0 == c.0) {
+                    out.push(c);
+                }
+            }
+            out
+        }
+    };
+    let mut cases = Vec::new();
+    let mut skipped = Vec::new();
+    for &&(name, description, kind, accuracy) in &selected {
+        let mut p = SynthParams {
+            part: Part::Box,
+            sampling: Sampling::Points(points),
+            noise: NOISE,
+            round: ROUND,
+            rotate: true,
+            seed: derive(seed, &[name_hash(name)]),
+            ..SynthParams::default()
+        };
+        match name {
+            "box" => {}
+            "lblock" => p.part = Part::LBlock,
+            "step" => {
+                p.part = Part::Step;
+                p.steps = 3;
+            }
+            "wedge" => {
+                p.part = Part::Wedge;
+                p.angle = 30.0;
+            }
+            "prism6" | "prism8" => {
+                p.part = Part::Prism;
+                p.sides = if name == "prism6" { 6 } else { 8 };
+            }
+            "pyramid" => p.part = Part::Pyramid,
+            "sphere" => p.part = Part::Sphere,
+            "box-noise0.5" => p.noise = 0.5,
+            "box-noise1.0" => p.noise = 1.0,
+            "box-30k" => p.sampling = Sampling::Points(30_000),
+            "box-far" => p.translate = FAR,
+            "fandisk" | "anchor" => {
+                let file = if name == "fandisk" {
+                    "fandisk.off"
+                } else {
+                    "anchor_dense.off"
+                };
+                let Some(path) = data
+                    .map(|d| d.join("cad").join(file))
+                    .filter(|f| f.is_file())
+                else {
+                    skipped.push(Skipped {
+                        case: name.into(),
+                        reason: match data {
+                            Some(d) => format!("{} not found", d.join("cad").join(file).display()),
+                            None => {
+                                "no data folder (../shared/data absent; pass --data DIR)".into()
+                            }
+                        },
+                    });
+                    continue;
+                };
+                p.part = Part::Mesh(path);
+            }
+            _ => unreachable!("every SUITE name has a recipe"),
+        }
+        cases.push(Case {
+            name,
+            description,
+            kind,
+            accuracy,
+            params: p,
+        });
+    }
+    Ok((cases, skipped))
+}
+
+/// Mean, median and maximum of a set of errors (spacings).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Spread {
+    pub mean: f64,
+    pub median: f64,
+    pub max: f64,
+}
+
+impl Spread {
+    fn of(values: &[f64]) -> Option<Spread> {
+        stats(values).map(|(mean, median, max)| Spread { mean, median, max })
+    }
+}
+
+/// A true corner without a match, or a found one without.
+#[derive(Debug, Clone, Serialize)]
+pub struct LoneCorner {
+    pub id: usize,
+    pub position: V3,
+    /// Distance to the nearest corner of the other set (spacings); `None` if it is empty.
+    pub nearest_h: Option<f64>,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct CornerMetrics {
+    #[serde(rename = "true")]
+    pub truth: usize,
+    pub found: usize,
+    pub matched: usize,
+    /// `None` when there is nothing to find (recall) or nothing was found (precision).
+    pub recall: Option<f64>,
+    pub precision: Option<f64>,
+    /// Distance of the matched corners (particle swarm) to the true ones.
+    pub error_h: Option<Spread>,
+    /// On the same matches: Scheme 1 (best data point) and the exact optimum.
+    pub scheme1_h: Option<Spread>,
+    pub exact_h: Option<Spread>,
+    /// The oracle on the true corners we matched (all true corners when none matched).
+    pub oracle_h: Option<Spread>,
+    /// Our mean error / the oracle's mean error on the same true corners.
+    pub ratio_to_oracle: Option<f64>,
+    pub missed: Vec<LoneCorner>,
+    pub spurious: Vec<LoneCorner>,
+}
+
+/// A true polyline or a found edge that is poorly matched.
+#[derive(Debug, Clone, Serialize)]
+pub struct PoorEdge {
+    pub id: usize,
+    pub length_h: f64,
+    /// Recall of a true polyline, or precision of a found edge.
+    pub matched_share: f64,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct EdgeMetrics {
+    /// True sharp-edge polylines (chains between corners) and their segments.
+    pub true_polylines: usize,
+    pub true_segments: usize,
+    pub found: usize,
+    pub true_length_h: f64,
+    pub found_length_h: f64,
+    pub recall: Option<f64>,
+    pub precision: Option<f64>,
+    /// Matched found length / matched true length: how many found edges cover a true one on
+    /// average (1 ideally; 2 when every edge is reported twice, which precision does not see).
+    pub duplication: Option<f64>,
+    /// Distance of the found edges' matched part to the true edges.
+    pub rms_h: Option<f64>,
+    pub mean_h: Option<f64>,
+    pub max_h: Option<f64>,
+    /// Mean signed offset of the matched part along the true edge's bisector, positive
+    /// towards the edge's rounded surface (into the material at a convex edge, out of it at
+    /// a concave one): a fit that follows the rounding instead of the sharp edge shows here.
+    pub offset_to_rounding_h: Option<f64>,
+    /// The oracle's edges, scored the same way.
+    pub oracle_rms_h: Option<f64>,
+    pub oracle_recall: Option<f64>,
+    pub ratio_to_oracle: Option<f64>,
+    /// True polylines with recall below the threshold, found edges with precision below it.
+    pub poorly_found: Vec<PoorEdge>,
+    pub spurious: Vec<PoorEdge>,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct RectifyMetrics {
+    /// True abnormal-zone points (not outliers).
+    pub abnormal_points: usize,
+    /// How many of them the pipeline moved.
+    pub abnormal_moved: usize,
+    /// Their mean distance to the true surface before and after, and after / before.
+    pub before_h: Option<f64>,
+    pub after_h: Option<f64>,
+    pub ratio: Option<f64>,
+    /// Points neither abnormal nor outliers, more than `AWAY` spacings from every edge…
+    pub away_points: usize,
+    /// …and how many of them changed coordinates (must be 0).
+    pub away_moved: usize,
+    /// Points flagged as moved, in total.
+    pub moved_points: usize,
+}
+
+/// The candidate edge points against the true points within `EDGE_TOL` of an edge.
+#[derive(Debug, Clone, Serialize)]
+pub struct CandidateMetrics {
+    pub count: usize,
+    pub recall: Option<f64>,
+    pub precision: Option<f64>,
+}
+
+/// The scale the pipeline measured, in true spacings.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct Measured {
+    pub spacing_h: f64,
+    pub noise_h: f64,
+    pub radius_h: f64,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct Seconds {
+    pub synth: f64,
+    pub pipeline: f64,
+    pub score: f64,
+    pub total: f64,
+    /// The pipeline's stages.
+    pub stages: Vec<StageTime>,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct StageTime {
+    pub stage: &'static str,
+    pub seconds: f64,
+}
+
+/// One threshold of the issue applied to a case.
+#[derive(Debug, Clone, Serialize)]
+pub struct Check {
+    pub name: &'static str,
+    /// `None` when the metric is undefined (e.g. precision with nothing found): a failure.
+    pub value: Option<f64>,
+    /// `">="`, `"<="` or `"=="`.
+    pub op: &'static str,
+    pub limit: f64,
+    pub pass: bool,
+}
+
+impl Check {
+    fn new(name: &'static str, value: Option<f64>, op: &'static str, limit: f64) -> Check {
+        let pass = value.is_some_and(|v| match op {
+            ">=" => v >= limit,
+            "<=" => v <= limit,
+            _ => v == limit,
+        });
+        Check {
+            name,
+            value,
+            op,
+            limit,
+            pass,
+        }
+    }
+}
+
+/// Everything measured on one case.
+#[derive(Debug, Clone, Serialize)]
+pub struct CaseResult {
+    pub name: String,
+    pub description: String,
+    pub kind: Kind,
+    pub params: SynthParams,
+    /// Set when the case could not be generated or run; the metrics are then absent.
+    pub error: Option<String>,
+    pub points: usize,
+    /// The true spacing h in model units (every `_h` value is in these).
+    pub spacing: f64,
+    pub noise_h: f64,
+    pub round_h: f64,
+    pub measured: Option<Measured>,
+    pub candidates: Option<CandidateMetrics>,
+    pub corners: Option<CornerMetrics>,
+    pub edges: Option<EdgeMetrics>,
+    pub rectify: Option<RectifyMetrics>,
+    pub failed_fits: usize,
+    /// The first few failure messages of the pipeline.
+    pub failures: Vec<String>,
+    /// Points that fed the oracle's plane fits: margin from the edges (spacings), the fewest
+    /// points of any face; `None` for non-polyhedral parts.
+    pub oracle_margin_h: Option<f64>,
+    pub oracle_min_face_points: Option<usize>,
+    pub seconds: Seconds,
+    pub checks: Vec<Check>,
+    pub pass: bool,
+}
+
+impl CaseResult {
+    /// A result with the case's identity and no metrics yet.
+    pub fn unscored(case: &Case) -> CaseResult {
+        CaseResult {
+            name: case.name.into(),
+            description: case.description.into(),
+            kind: case.kind,
+            params: case.params.clone(),
+            error: None,
+            points: 0,
+            spacing: 0.0,
+            noise_h: case.params.noise,
+            round_h: case.params.round,
+            measured: None,
+            candidates: None,
+            corners: None,
+            edges: None,
+            rectify: None,
+            failed_fits: 0,
+            failures: Vec::new(),
+            oracle_margin_h: None,
+            oracle_min_face_points: None,
+            seconds: Seconds {
+                synth: 0.0,
+                pipeline: 0.0,
+                score: 0.0,
+                total: 0.0,
+                stages: Vec::new(),
+            },
+            checks: Vec::new(),
+            pass: false,
+        }
+    }
+}
+
+/// The bench's JSON.
+#[derive(Debug, Clone, Serialize)]
+pub struct BenchReport {
+    pub sharpedge: &'static str,
+    pub points: usize,
+    pub seed: u64,
+    pub threads: usize,
+    pub config: Option<PathBuf>,
+    pub data: Option<PathBuf>,
+    pub tolerances: Tolerances,
+    pub cases: Vec<CaseResult>,
+    pub skipped: Vec<Skipped>,
+    pub seconds: f64,
+    pub slowest_case: Option<String>,
+    pub passed: usize,
+    pub failed: usize,
+    pub settings: Settings,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct Tolerances {
+    pub corner_h: f64,
+    pub edge_h: f64,
+    pub away_h: f64,
+    pub sample_step_h: f64,
+}
+
+/// What to run.
+#[derive(Debug, Clone)]
+pub struct BenchOptions {
+    /// Case names; `None` for the whole suite.
+    pub cases: Option<Vec<String>>,
+    pub points: usize,
+    pub seed: u64,
+    pub settings: Settings,
+    /// The pipeline file the settings came from (reported only).
+    pub config: Option<PathBuf>,
+    /// Worker threads (0 = all cores).
+    pub threads: usize,
+    /// The shared data folder (with `cad/`); `None` skips the mesh cases.
+    pub data: Option<PathBuf>,
+}
+
+/// Stage timings of one pipeline run.
+struct StageClock {
+    last: Instant,
+    stages: Vec<StageTime>,
+}
+
+impl LapClock for StageClock {
+    fn lap(&mut self, stage: &'static str) {
+        let now = Instant::now();
+        self.stages.push(StageTime {
+            stage,
+            seconds: (now - self.last).as_secs_f64(),
+        });
+        self.last = now;
+    }
+}
+
+/// Runs the selected cases on a pool of `threads` workers.
+pub fn run(opts: &BenchOptions) -> Result<BenchReport> {
+    if opts.points == 0 {
+        return Err(Error::Usage {
+            option: "--points".into(),
+            message: "must be at least 1".into(),
+        });
+    }
+    let (cases, skipped) = suite(
+        opts.cases.as_deref(),
+        opts.points,
+        opts.seed,
+        opts.data.as_deref(),
+    )?;
+    for s in &skipped {
+        tracing::warn!("skipped {}: {}", s.case, s.reason);
+    }
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(opts.threads)
+        .build()
+        .map_err(|e| Error::Usage {
+            option: "--threads".into(),
+            message: format!("cannot start {} worker threads: {e}", opts.threads),
+        })?;
+    let start = Instant::now();
+    let results: Vec<CaseResult> = pool.install(|| {
+        let progress = Progress::start("bench", cases.len() as u64, "cases");
+        cases
+            .iter()
+            .map(|c| {
+                let r = run_case(c, &opts.settings);
+                tracing::info!(
+                    "{}: {} in {:.1} s",
+                    r.name,
+                    if r.pass { "pass" } else { "FAIL" },
+                    r.seconds.total
+                );
+                progress.inc(1);
+                r
+            })
+            .collect()
+    });
+    let slowest_case = results
+        .iter()
+        .max_by(|a, b| a.seconds.total.total_cmp(&b.seconds.total))
+        .map(|r| r.name.clone());
+    let passed = results.iter().filter(|r| r.pass).count();
+    Ok(BenchReport {
+        sharpedge: env!("CARGO_PKG_VERSION"),
+        points: opts.points,
+        seed: opts.seed,
+        threads: pool.current_num_threads(),
+        config: opts.config.clone(),
+        data: opts.data.clone(),
+        tolerances: Tolerances {
+            corner_h: CORNER_TOL,
+            edge_h: EDGE_TOL,
+            away_h: AWAY,
+            sample_step_h: SAMPLE_STEP,
+        },
+        failed: results.len() - passed,
+        passed,
+        cases: results,
+        skipped,
+        seconds: start.elapsed().as_secs_f64(),
+        slowest_case,
+        settings: opts.settings.clone(),
+    })
+}
+
+/// Generates, runs and scores one case. Errors end up in the result, not in an `Err`.
+pub fn run_case(case: &Case, settings: &Settings) -> CaseResult {
+    let t0 = Instant::now();
+    let mut result = CaseResult::unscored(case);
+    let scan = match synth::generate(&case.params) {
+        Ok(s) => s,
+        Err(e) => {
+            result.error = Some(format!("synth: {e}"));
+            result.seconds.total = t0.elapsed().as_secs_f64();
+            return result;
+        }
+    };
+    result.seconds.synth = t0.elapsed().as_secs_f64();
+    result.points = scan.cloud.len();
+    result.spacing = scan.ground_truth.spacing;
+    let truth = scan.truth;
+    let gt = scan.ground_truth;
+    let t1 = Instant::now();
+    let mut clock = StageClock {
+        last: t1,
+        stages: Vec::new(),
+    };
+    let outcome = pipeline::process(scan.cloud, settings, &mut clock);
+    result.seconds.pipeline = t1.elapsed().as_secs_f64();
+    result.seconds.stages = clock.stages;
+    match outcome {
+        Ok(outcome) => {
+            let t2 = Instant::now();
+            if let Err(e) = score_case(case, &gt, &truth, &outcome, &mut result) {
+                result.error = Some(e);
+            }
+            result.seconds.score = t2.elapsed().as_secs_f64();
+        }
+        Err(e) => result.error = Some(format!("pipeline: {e}")),
+    }
+    result.checks = checks(case.kind, case.accuracy, &result);
+    result.pass = result.error.is_none() && result.checks.iter().all(|c| c.pass);
+    result.seconds.total = t0.elapsed().as_secs_f64();
+    result
+}
+
+/// Fills the metrics of `r` from the pipeline's outcome.
+fn score_case(
+    case: &Case,
+    gt: &GroundTruth,
+    truth: &[PointTruth],
+    out: &Outcome,
+    r: &mut CaseResult,
+) -> std::result::Result<(), String> {
+    let h = gt.spacing;
+    let n = out.cloud.len();
+    if out.rectified.len() != n || out.moved.len() != n || truth.len() != n {
+        return Err(format!(
+            "outcome has {} rectified positions and {} moved flags for {n} points ({} truths)",
+            out.rectified.len(),
+            out.moved.len(),
+            truth.len()
+        ));
+    }
+    r.measured = Some(Measured {
+        spacing_h: out.scale.spacing / h,
+        noise_h: out.scale.noise / h,
+        radius_h: out.scale.radius / h,
+    });
+    r.failed_fits = out.failures.len();
+    r.failures = out.failures.iter().take(5).cloned().collect();
+    r.candidates = Some(candidate_metrics(&out.features.candidate, truth, h));
+
+    let oracle =
+        (case.kind == Kind::Polyhedral).then(|| oracle::fit(gt, &out.cloud.positions, truth));
+    let true_corners: Vec<V3> = gt.corners.iter().map(|c| c.position).collect();
+    r.corners = Some(corner_metrics(
+        &out.corners,
+        &true_corners,
+        oracle.as_ref().map(|o| o.corners.as_slice()),
+        h,
+    ));
+    let polylines: Vec<Vec<V3>> = out.edges.iter().map(|e| e.polyline.clone()).collect();
+    r.edges = Some(edge_metrics(
+        &polylines,
+        gt,
+        oracle.as_ref().map(|o| o.edges.as_slice()),
+        h,
+    ));
+    // Rectification.
+    r.rectify = Some(rectify_metrics(
+        &out.cloud.positions,
+        &out.rectified,
+        &out.moved,
+        truth,
+        h,
+        |p| gt.distance_to_surface(p),
+    ));
+    if let Some(o) = &oracle {
+        r.oracle_margin_h = Some(o.margin / h);
+        r.oracle_min_face_points = o.face_points.iter().copied().min();
+    }
+    Ok(())
+}
+
+fn ratio(a: Option<f64>, b: Option<f64>) -> Option<f64> {
+    match (a, b) {
+        (Some(a), Some(b)) if b > 0.0 => Some(a / b),
+        _ => None,
+    }
+}
+
+/// Corner metrics of the found corners against the true ones; `oracle` holds the oracle's
+/// corner per true corner (polyhedral parts only).
+pub fn corner_metrics(
+    found: &[CornerOut],
+    true_corners: &[V3],
+    oracle: Option<&[Option<V3>]>,
+    h: f64,
+) -> CornerMetrics {
+    let positions: Vec<V3> = found.iter().map(|c| c.position).collect();
+    let matches = score::match_corners(&positions, true_corners, CORNER_TOL * h);
+    let err = |f: &dyn Fn(&CornerOut) -> V3| -> Vec<f64> {
+        matches
+            .iter()
+            .map(|m| dist(f(&found[m.found]), true_corners[m.truth]) / h)
+            .collect()
+    };
+    let error_h = Spread::of(&err(&|c| c.position));
+    // Like for like: the oracle on the true corners we matched (all of them if none).
+    let oracle_h = oracle.and_then(|o| {
+        let ids: Vec<usize> = if matches.is_empty() {
+            (0..true_corners.len()).collect()
+        } else {
+            matches.iter().map(|m| m.truth).collect()
+        };
+        let e: Vec<f64> = ids
+            .iter()
+            .filter_map(|&j| {
+                o.get(j)
+                    .copied()
+                    .flatten()
+                    .map(|p| dist(p, true_corners[j]) / h)
+            })
+            .collect();
+        Spread::of(&e)
+    });
+    let lone = |set: &[V3], other: &[V3], used: &dyn Fn(usize) -> bool| -> Vec<LoneCorner> {
+        (0..set.len())
+            .filter(|&i| !used(i))
+            .map(|i| LoneCorner {
+                id: i,
+                position: set[i],
+                nearest_h: other
+                    .iter()
+                    .map(|q| dist(*q, set[i]) / h)
+                    .min_by(f64::total_cmp),
+            })
+            .collect()
+    };
+    CornerMetrics {
+        truth: true_corners.len(),
+        found: found.len(),
+        matched: matches.len(),
+        recall: (!true_corners.is_empty())
+            .then(|| matches.len() as f64 / true_corners.len() as f64),
+        precision: (!found.is_empty()).then(|| matches.len() as f64 / found.len() as f64),
+        error_h,
+        scheme1_h: Spread::of(&err(&|c| c.scheme1)),
+        exact_h: Spread::of(&err(&|c| c.exact)),
+        oracle_h,
+        ratio_to_oracle: ratio(error_h.map(|s| s.mean), oracle_h.map(|s| s.mean)),
+        missed: lone(true_corners, &positions, &|j| {
+            matches.iter().any(|m| m.truth == j)
+        }),
+        spurious: lone(&positions, true_corners, &|i| {
+            matches.iter().any(|m| m.found == i)
+        }),
+    }
+}
+
+/// Edge metrics of the found edge polylines against the true edges of `gt`; `oracle` holds
+/// the oracle's segment per true edge (polyhedral parts only).
+pub fn edge_metrics(
+    polylines: &[Vec<V3>],
+    gt: &GroundTruth,
+    oracle: Option<&[Option<(V3, V3)>]>,
+    h: f64,
+) -> EdgeMetrics {
+    let true_segments: Vec<(V3, V3)> = gt.edges.iter().map(|e| (e.start, e.end)).collect();
+    let found_segments = polyline_segments(polylines);
+    let es = score_edges(
+        &found_segments,
+        &true_segments,
+        EDGE_TOL * h,
+        SAMPLE_STEP * h,
+    );
+    let oracle_score: Option<EdgeScore> = oracle.map(|o| {
+        let segs: Vec<(V3, V3)> = o.iter().flatten().copied().collect();
+        score_edges(&segs, &true_segments, EDGE_TOL * h, SAMPLE_STEP * h)
+    });
+    let rms_h = es.distance.map(|d| d.0 / h);
+    let oracle_rms_h = oracle_score
+        .as_ref()
+        .and_then(|o| o.distance.map(|d| d.0 / h));
+    EdgeMetrics {
+        true_polylines: gt.polylines.len(),
+        true_segments: true_segments.len(),
+        found: polylines.len(),
+        true_length_h: es.true_length / h,
+        found_length_h: es.found_length / h,
+        recall: es.recall(),
+        precision: es.precision(),
+        duplication: (es.true_covered > 0.0).then(|| es.found_covered / es.true_covered),
+        rms_h,
+        mean_h: es.distance.map(|d| d.1 / h),
+        max_h: es.distance.map(|d| d.2 / h),
+        offset_to_rounding_h: offset_to_rounding(gt, &es.samples).map(|o| o / h),
+        oracle_rms_h,
+        oracle_recall: oracle_score.as_ref().and_then(EdgeScore::recall),
+        ratio_to_oracle: ratio(rms_h, oracle_rms_h),
+        poorly_found: poorly_found(gt, &es, h),
+        spurious: spurious(polylines, &es, h),
+    }
+}
+
+/// Weighted mean of the samples' offsets along the unit vector from each true edge towards
+/// its rounding: `−(n0 + n1)` at a convex edge, `n0 + n1` at a concave one (`n` the faces'
+/// outward normals). `None` without samples.
+fn offset_to_rounding(gt: &GroundTruth, samples: &[score::EdgeSample]) -> Option<f64> {
+    let (mut sum, mut w) = (0.0, 0.0);
+    for s in samples {
+        let e = &gt.edges[s.segment];
+        let b = add(e.normals[0], e.normals[1]);
+        let len = norm(b);
+        if len.is_nan() || len <= 1e-12 {
+            continue; // faces back to back: no bisector
+        }
+        let sign = if e.convex { -1.0 } else { 1.0 };
+        sum += s.weight * sign * dot(s.offset, b) / len;
+        w += s.weight;
+    }
+    (w > 0.0).then(|| sum / w)
+}
+
+/// True polylines whose recall is below the edge threshold.
+fn poorly_found(gt: &GroundTruth, es: &EdgeScore, h: f64) -> Vec<PoorEdge> {
+    let mut covered = vec![0.0; gt.polylines.len()];
+    for (k, e) in gt.edges.iter().enumerate() {
+        if let Some(c) = covered.get_mut(e.polyline) {
+            *c += es.true_covered_each[k];
+        }
+    }
+    gt.polylines
+        .iter()
+        .zip(&covered)
+        .filter(|(p, c)| p.length > 0.0 && **c / p.length < limits::EDGE_RECALL)
+        .map(|(p, c)| PoorEdge {
+            id: p.id,
+            length_h: p.length / h,
+            matched_share: c / p.length,
+        })
+        .collect()
+}
+
+/// Found edges whose precision is below the edge threshold.
+fn spurious(polylines: &[Vec<V3>], es: &EdgeScore, h: f64) -> Vec<PoorEdge> {
+    let mut out = Vec::new();
+    let mut k = 0;
+    for (id, pl) in polylines.iter().enumerate() {
+        let nseg = match pl.len() {
+            0 => 0,
+            1 => 1,
+            n => n - 1,
+        };
+        let covered: f64 = es.found_covered_each[k..k + nseg].iter().sum();
+        k += nseg;
+        let len = score::polyline_length(pl);
+        let share = if len > 0.0 { covered / len } else { 0.0 };
+        if share < limits::EDGE_PRECISION {
+            out.push(PoorEdge {
+                id,
+                length_h: len / h,
+                matched_share: share,
+            });
+        }
+    }
+    out
+}
+
+/// Candidates against the true edge points (not outliers, within `EDGE_TOL` h of an edge).
+pub fn candidate_metrics(candidate: &[bool], truth: &[PointTruth], h: f64) -> CandidateMetrics {
+    let near = |t: &PointTruth| !t.outlier && t.edge_distance <= EDGE_TOL * h;
+    let count = candidate.iter().filter(|&&c| c).count();
+    let true_near = truth.iter().filter(|t| near(t)).count();
+    let hits = candidate
+        .iter()
+        .zip(truth)
+        .filter(|(c, t)| **c && near(t))
+        .count();
+    CandidateMetrics {
+        count,
+        recall: (true_near > 0).then(|| hits as f64 / true_near as f64),
+        precision: (count > 0).then(|| hits as f64 / count as f64),
+    }
+}
+
+/// Rectification against the true surface: the abnormal points' mean distance to it before
+/// (`positions`) and after (`rectified`), and the points far from edges that changed at all.
+/// Distances are computed in parallel and summed in point order (the same total for any
+/// thread count).
+pub fn rectify_metrics(
+    positions: &[V3],
+    rectified: &[V3],
+    moved: &[bool],
+    truth: &[PointTruth],
+    h: f64,
+    distance_to_surface: impl Fn(V3) -> f64 + Sync,
+) -> RectifyMetrics {
+    let abnormal: Vec<usize> = (0..truth.len())
+        .filter(|&i| truth[i].abnormal && !truth[i].outlier)
+        .collect();
+    let d: Vec<(f64, f64)> = abnormal
+        .par_iter()
+        .map(|&i| {
+            (
+                distance_to_surface(positions[i]),
+                distance_to_surface(rectified[i]),
+            )
+        })
+        .collect();
+    let (before, after) = d.iter().fold((0.0, 0.0), |(b, a), &(x, y)| (b + x, a + y));
+    let m = abnormal.len() as f64;
+    let before_h = (!abnormal.is_empty()).then(|| before / m / h);
+    let after_h = (!abnormal.is_empty()).then(|| after / m / h);
+    let away: Vec<usize> = (0..truth.len())
+        .filter(|&i| {
+            let t = &truth[i];
+            !t.abnormal && !t.outlier && t.edge_distance > AWAY * h
+        })
+        .collect();
+    RectifyMetrics {
+        abnormal_points: abnormal.len(),
+        abnormal_moved: abnormal.iter().filter(|&&i| moved[i]).count(),
+        before_h,
+        after_h,
+        ratio: ratio(after_h, before_h),
+        away_points: away.len(),
+        away_moved: away
+            .iter()
+            .filter(|&&i| !same_bits(positions[i], rectified[i]))
+            .count(),
+        moved_points: moved.iter().filter(|&&m| m).count(),
+    }
+}
+
+/// The issue's thresholds for a case of this kind.
+pub fn checks(kind: Kind, accuracy: bool, r: &CaseResult) -> Vec<Check> {
+    let mut out = Vec::new();
+    let (Some(c), Some(e), Some(rect)) = (&r.corners, &r.edges, &r.rectify) else {
+        return out;
+    };
+    match kind {
+        Kind::Polyhedral => {
+            out.push(Check::new(
+                "corner recall",
+                c.recall,
+                ">=",
+                limits::CORNER_RECALL,
+            ));
+            out.push(Check::new(
+                "corner precision",
+                c.precision,
+                ">=",
+                limits::CORNER_PRECISION,
+            ));
+            out.push(Check::new(
+                "edge recall",
+                e.recall,
+                ">=",
+                limits::EDGE_RECALL,
+            ));
+            out.push(Check::new(
+                "edge precision",
+                e.precision,
+                ">=",
+                limits::EDGE_PRECISION,
+            ));
+            if accuracy {
+                out.push(Check::new(
+                    "mean corner error (h)",
+                    c.error_h.map(|s| s.mean),
+                    "<=",
+                    limits::CORNER_ERROR,
+                ));
+                out.push(Check::new("edge RMS (h)", e.rms_h, "<=", limits::EDGE_RMS));
+            }
+        }
+        Kind::Smooth => {
+            out.push(Check::new("edges found", Some(e.found as f64), "==", 0.0));
+            out.push(Check::new("corners found", Some(c.found as f64), "==", 0.0));
+        }
+        Kind::Curved => {
+            out.push(Check::new(
+                "edge recall",
+                e.recall,
+                ">=",
+                limits::CURVED_EDGE,
+            ));
+            out.push(Check::new(
+                "edge precision",
+                e.precision,
+                ">=",
+                limits::CURVED_EDGE,
+            ));
+        }
+    }
+    if rect.abnormal_points > 0 {
+        out.push(Check::new(
+            "rectified / raw distance",
+            rect.ratio,
+            "<=",
+            limits::RECTIFY_RATIO,
+        ));
+    }
+    out.push(Check::new(
+        "points away from edges moved",
+        Some(rect.away_moved as f64),
+        "==",
+        0.0,
+    ));
+    out
+}
+
+fn opt(v: Option<f64>, width: usize, prec: usize) -> String {
+    match v {
+        Some(x) => format!("{x:>width$.prec$}"),
+        None => format!("{:>width$}", "n/a"),
+    }
+}
+
+/// The printed tables: detection, then accuracy, then the failed checks.
+pub fn table(rep: &BenchReport) -> String {
+    use std::fmt::Write;
+    let mut t = String::new();
+    let _ = writeln!(
+        t,
+        "sharpedge {} bench: {} points per case, seed {}, {} threads{}",
+        rep.sharpedge,
+        rep.points,
+        rep.seed,
+        rep.threads,
+        rep.config
+            .as_ref()
+            .map(|c| format!(", config {}", c.display()))
+            .unwrap_or_else(|| ", default settings".into())
+    );
+    let _ = writeln!(
+        t,
+        "lengths in true spacings h; corners match within {CORNER_TOL} h, edges within {EDGE_TOL} h"
+    );
+    let _ = writeln!(t);
+    let _ = writeln!(
+        t,
+        "{:<13} {:>7} {:>9} {:>6} {:>5} {:>5} {:>6} {:>5} {:>5} {:>5} {:>4}  {:>5} {:>5} {:>5}  {:>6}",
+        "detection",
+        "points",
+        "edges f/t",
+        "recall",
+        "prec",
+        "dup",
+        "crn f/t",
+        "rec",
+        "prec",
+        "cand",
+        "fail",
+        "spc",
+        "noise",
+        "rad",
+        "time s"
+    );
+    for r in &rep.cases {
+        let (Some(c), Some(e)) = (&r.corners, &r.edges) else {
+            let _ = writeln!(
+                t,
+                "{:<13} {:>7}  error: {}",
+                r.name,
+                r.points,
+                r.error.as_deref().unwrap_or("not scored")
+            );
+            continue;
+        };
+        let m = r.measured;
+        let _ = writeln!(
+            t,
+            "{:<13} {:>7} {:>9} {} {} {} {:>6} {} {} {} {:>4}  {} {} {}  {:>6.1}",
+            r.name,
+            r.points,
+            format!("{}/{}", e.found, e.true_polylines),
+            opt(e.recall, 6, 3),
+            opt(e.precision, 5, 3),
+            opt(e.duplication, 5, 2),
+            format!("{}/{}", c.found, c.truth),
+            opt(c.recall, 5, 2),
+            opt(c.precision, 5, 2),
+            opt(r.candidates.as_ref().and_then(|x| x.recall), 5, 2),
+            r.failed_fits,
+            opt(m.map(|m| m.spacing_h), 5, 3),
+            opt(m.map(|m| m.noise_h), 5, 3),
+            opt(m.map(|m| m.radius_h), 5, 2),
+            r.seconds.total
+        );
+    }
+    let _ = writeln!(t);
+    let _ = writeln!(
+        t,
+        "{:<13} {:>23} {:>6} {:>6} {:>6} {:>6}  {:>6} {:>6} {:>6} {:>6} {:>6}  {:>17} {:>5} {:>4}  verdict",
+        "accuracy",
+        "corner err mean/med/max",
+        "schm1",
+        "exact",
+        "oracle",
+        "x orc",
+        "E rms",
+        "E max",
+        "bias",
+        "oracle",
+        "x orc",
+        "rectify raw→after",
+        "ratio",
+        "away",
+    );
+    for r in &rep.cases {
+        let (Some(c), Some(e), Some(x)) = (&r.corners, &r.edges, &r.rectify) else {
+            let _ = writeln!(t, "{:<13} {:>23}  FAIL (error)", r.name, "n/a");
+            continue;
+        };
+        let spread = |s: Option<Spread>| match s {
+            Some(s) => format!("{:.3}/{:.3}/{:.3}", s.mean, s.median, s.max),
+            None => "n/a".into(),
+        };
+        let failed = r.checks.iter().filter(|c| !c.pass).count();
+        let verdict = if r.pass {
+            "PASS".to_string()
+        } else {
+            format!("FAIL {failed}/{}", r.checks.len())
+        };
+        let _ = writeln!(
+            t,
+            "{:<13} {:>23} {} {} {} {}  {} {} {} {} {}  {:>17} {} {:>4}  {}",
+            r.name,
+            spread(c.error_h),
+            opt(c.scheme1_h.map(|s| s.mean), 6, 3),
+            opt(c.exact_h.map(|s| s.mean), 6, 3),
+            opt(c.oracle_h.map(|s| s.mean), 6, 4),
+            opt(c.ratio_to_oracle, 6, 1),
+            opt(e.rms_h, 6, 3),
+            opt(e.max_h, 6, 3),
+            opt(e.offset_to_rounding_h, 6, 3),
+            opt(e.oracle_rms_h, 6, 4),
+            opt(e.ratio_to_oracle, 6, 1),
+            match (x.before_h, x.after_h) {
+                (Some(b), Some(a)) => format!("{b:.3}→{a:.3}"),
+                _ => "n/a".into(),
+            },
+            opt(x.ratio, 5, 2),
+            x.away_moved,
+            verdict
+        );
+    }
+    let _ = writeln!(t);
+    let _ = writeln!(
+        t,
+        "detection: edges/corners found/true; dup = found edge length per true edge length (matched parts, 1 ideally);"
+    );
+    let _ = writeln!(
+        t,
+        "  cand = share of true edge points (≤ {EDGE_TOL} h) that are candidates; fail = failed fits;\n  spc, noise, rad = spacing, noise sigma and neighbourhood radius the pipeline measured (h)."
+    );
+    let _ = writeln!(
+        t,
+        "accuracy: corner errors of the swarm, Scheme 1, the exact optimum and the oracle (h); x orc = ours / oracle;"
+    );
+    let _ = writeln!(
+        t,
+        "  E rms/max = distance of found edges to true ones (matched part); bias = their mean offset towards the rounding;"
+    );
+    let _ = writeln!(
+        t,
+        "  rectify = abnormal points' mean distance to the true surface; away = points > {AWAY} h from edges that moved (must be 0)."
+    );
+    let failing: Vec<&CaseResult> = rep.cases.iter().filter(|r| !r.pass).collect();
+    if !failing.is_empty() {
+        let _ = writeln!(t);
+        let _ = writeln!(t, "failed checks:");
+        for r in failing {
+            if let Some(e) = &r.error {
+                let _ = writeln!(t, "  {:<13} error: {e}", r.name);
+            }
+            let list: Vec<String> = r
+                .checks
+                .iter()
+                .filter(|c| !c.pass)
+                .map(|c| {
+                    format!(
+                        "{} {} (need {} {})",
+                        c.name,
+                        c.value.map_or("n/a".into(), |v| format!("{v:.4}")),
+                        c.op,
+                        c.limit
+                    )
+                })
+                .collect();
+            if !list.is_empty() {
+                let _ = writeln!(t, "  {:<13} {}", r.name, list.join("; "));
+            }
+        }
+    }
+    for s in &rep.skipped {
+        let _ = writeln!(t, "skipped {}: {}", s.case, s.reason);
+    }
+    let _ = writeln!(t);
+    let _ = writeln!(
+        t,
+        "{} of {} cases pass; {:.1} s in total{}",
+        rep.passed,
+        rep.cases.len(),
+        rep.seconds,
+        rep.slowest_case
+            .as_ref()
+            .and_then(|n| rep.cases.iter().find(|r| &r.name == n))
+            .map(|r| format!(
+                ", slowest {} {:.1} s (synth {:.1}, pipeline {:.1}, scoring {:.1})",
+                r.name, r.seconds.total, r.seconds.synth, r.seconds.pipeline, r.seconds.score
+            ))
+            .unwrap_or_default()
+    );
+    t
+}
+
+#[cfg(test)]
+mod tests;

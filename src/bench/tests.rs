@@ -1,0 +1,471 @@
+//! Tests of the bench's case list, metrics and verdicts with hand-made answers.
+
+use super::*;
+use crate::synth::geom::{add, norm, scale, sub};
+
+/// A small, exact (noise-free, unrotated) box: its ground truth gives true edges and corners.
+fn box_truth() -> synth::Scan {
+    synth::generate(&SynthParams {
+        sampling: Sampling::Points(5_000),
+        ..SynthParams::default()
+    })
+    .unwrap()
+}
+
+fn corner_out(position: V3, scheme1: V3, exact: V3) -> CornerOut {
+    CornerOut {
+        id: 0,
+        position,
+        edges: Vec::new(),
+        error: None,
+        scheme1,
+        exact,
+    }
+}
+
+fn unit(v: V3) -> V3 {
+    scale(v, 1.0 / norm(v))
+}
+
+/// A unit vector perpendicular to `d`.
+fn perpendicular(d: V3) -> V3 {
+    let a = if d[0].abs() < 0.9 {
+        [1.0, 0.0, 0.0]
+    } else {
+        [0.0, 1.0, 0.0]
+    };
+    unit(crate::synth::geom::cross(d, a))
+}
+
+#[test]
+fn suite_has_every_case_of_the_issue_in_order() {
+    let dir = tempfile::TempDir::new().unwrap();
+    std::fs::create_dir(dir.path().join("cad")).unwrap();
+    for f in ["fandisk.off", "anchor_dense.off"] {
+        std::fs::write(dir.path().join("cad").join(f), "OFF\n").unwrap();
+    }
+    let (cases, skipped) = suite(None, 1000, 1, Some(dir.path())).unwrap();
+    assert!(skipped.is_empty());
+    let names: Vec<&str> = cases.iter().map(|c| c.name).collect();
+    assert_eq!(names, case_names());
+    assert_eq!(names.len(), 14);
+    for c in &cases {
+        assert!(c.params.rotate, "{}", c.name);
+        let (noise, points) = match c.name {
+            "box-noise0.5" => (0.5, 1000),
+            "box-noise1.0" => (1.0, 1000),
+            "box-30k" => (0.15, 30_000),
+            _ => (0.15, 1000),
+        };
+        assert_eq!(c.params.noise, noise, "{}", c.name);
+        assert_eq!(c.params.sampling, Sampling::Points(points), "{}", c.name);
+        assert_eq!(c.params.round, 1.5);
+    }
+    let far = &cases.iter().find(|c| c.name == "box-far").unwrap().params;
+    assert!((norm(far.translate) - 4.0e6).abs() < 1e-6);
+    let by = |n: &str| cases.iter().find(|c| c.name == n).unwrap().params.clone();
+    assert_eq!((by("prism6").sides, by("prism8").sides), (6, 8));
+    assert_eq!(by("wedge").angle, 30.0);
+    assert_eq!(by("sphere").part, Part::Sphere);
+    assert_eq!(
+        by("anchor").part,
+        Part::Mesh(dir.path().join("cad/anchor_dense.off"))
+    );
+    // Every case has its own rotation seed.
+    let mut seeds: Vec<u64> = cases.iter().map(|c| c.params.seed).collect();
+    seeds.sort_unstable();
+    seeds.dedup();
+    assert_eq!(seeds.len(), 14);
+}
+
+#[test]
+fn a_case_keeps_its_seed_whatever_else_is_selected() {
+    let all = suite(None, 1000, 7, None).unwrap().0;
+    let one = suite(Some(&["wedge".to_string()]), 1000, 7, None)
+        .unwrap()
+        .0;
+    let w = all.iter().find(|c| c.name == "wedge").unwrap();
+    assert_eq!(one.len(), 1);
+    assert_eq!(one[0].params, w.params);
+    let other = suite(Some(&["wedge".to_string()]), 1000, 8, None)
+        .unwrap()
+        .0;
+    assert_ne!(other[0].params.seed, w.params.seed);
+}
+
+#[test]
+fn mesh_cases_are_skipped_with_a_note_without_data() {
+    let dir = tempfile::TempDir::new().unwrap();
+    let (cases, skipped) = suite(None, 1000, 1, Some(dir.path())).unwrap();
+    assert_eq!(cases.len(), 12);
+    assert_eq!(skipped.len(), 2);
+    assert_eq!(skipped[0].case, "fandisk");
+    assert!(
+        skipped[0].reason.contains("fandisk.off not found"),
+        "{}",
+        skipped[0].reason
+    );
+    let (_, skipped) = suite(Some(&["anchor".into()]), 1000, 1, None).unwrap();
+    assert!(skipped[0].reason.contains("pass --data"), "{:?}", skipped);
+}
+
+#[test]
+fn unknown_case_names_the_valid_ones() {
+    let e = suite(Some(&["box".into(), "cube".into()]), 1000, 1, None).unwrap_err();
+    let msg = e.to_string();
+    assert!(msg.starts_with("--cases: unknown case \"cube\""), "{msg}");
+    assert!(msg.contains("box, lblock, step, wedge, prism6"), "{msg}");
+}
+
+#[test]
+fn repeated_case_names_run_once() {
+    let (cases, _) = suite(Some(&["box".into(), " box".into()]), 1000, 1, None).unwrap();
+    assert_eq!(cases.len(), 1);
+}
+
+#[test]
+fn corner_metrics_of_hand_made_corners() {
+    let h = 0.5;
+    let truth = [[0.0; 3], [10.0, 0.0, 0.0], [0.0, 10.0, 0.0]];
+    let found = [
+        // 0.1 h from corner 0; Scheme 1 at 1 h, exact at 0.05 h.
+        corner_out([0.05, 0.0, 0.0], [0.5, 0.0, 0.0], [0.0, 0.025, 0.0]),
+        // 0.3 h from corner 1.
+        corner_out([10.0, 0.15, 0.0], [10.0, 0.15, 0.0], [10.0, 0.15, 0.0]),
+        // 4 h from corner 2: unmatched.
+        corner_out([0.0, 12.0, 0.0], [0.0; 3], [0.0; 3]),
+    ];
+    let oracle = [Some([0.0, 0.0, 0.01]), Some([10.0, 0.0, 0.02]), None];
+    let m = corner_metrics(&found, &truth, Some(&oracle), h);
+    assert_eq!((m.truth, m.found, m.matched), (3, 3, 2));
+    assert!((m.recall.unwrap() - 2.0 / 3.0).abs() < 1e-15);
+    assert!((m.precision.unwrap() - 2.0 / 3.0).abs() < 1e-15);
+    let e = m.error_h.unwrap();
+    assert!((e.mean - 0.2).abs() < 1e-12 && (e.max - 0.3).abs() < 1e-12);
+    assert!((m.scheme1_h.unwrap().mean - 0.65).abs() < 1e-12);
+    assert!((m.exact_h.unwrap().mean - 0.175).abs() < 1e-12);
+    // Oracle on the matched true corners: 0.02 h and 0.04 h.
+    assert!((m.oracle_h.unwrap().mean - 0.03).abs() < 1e-12);
+    assert!((m.ratio_to_oracle.unwrap() - 0.2 / 0.03).abs() < 1e-9);
+    assert_eq!(m.missed.len(), 1);
+    assert_eq!(m.missed[0].id, 2);
+    assert!((m.missed[0].nearest_h.unwrap() - 4.0).abs() < 1e-12);
+    assert_eq!(m.spurious.len(), 1);
+    assert_eq!(m.spurious[0].id, 2);
+}
+
+#[test]
+fn nothing_to_find_and_nothing_found_are_undefined_not_zero() {
+    let m = corner_metrics(&[], &[], None, 1.0);
+    assert_eq!((m.recall, m.precision, m.error_h), (None, None, None));
+    let scan = box_truth();
+    let e = edge_metrics(&[], &scan.ground_truth, None, 1.0);
+    assert_eq!(e.recall, Some(0.0));
+    assert_eq!(e.precision, None);
+    assert_eq!(e.rms_h, None);
+    assert_eq!(e.poorly_found.len(), 12);
+}
+
+#[test]
+fn edges_offset_by_one_spacing_score_rms_one_and_full_recall() {
+    let scan = box_truth();
+    let gt = &scan.ground_truth;
+    let h = gt.spacing;
+    // Every true edge shifted sideways by exactly h (perpendicular to it): within the 2 h
+    // tolerance everywhere, so recall and precision are 1 and the RMS is 1 h (the shifted
+    // edges stay 1 h from their own edge, and no closer to any other one).
+    let found: Vec<Vec<V3>> = gt
+        .edges
+        .iter()
+        .map(|e| {
+            let d = unit(sub(e.end, e.start));
+            // Outwards along one face normal: away from the box, so no other edge is nearer.
+            let n = e.normals[0];
+            assert!(crate::synth::geom::dot(n, d).abs() < 1e-12);
+            vec![add(e.start, scale(n, h)), add(e.end, scale(n, h))]
+        })
+        .collect();
+    let m = edge_metrics(&found, gt, None, h);
+    assert_eq!((m.found, m.true_polylines, m.true_segments), (12, 12, 12));
+    assert!((m.recall.unwrap() - 1.0).abs() < 1e-12, "{:?}", m.recall);
+    assert!((m.precision.unwrap() - 1.0).abs() < 1e-12);
+    assert!((m.duplication.unwrap() - 1.0).abs() < 1e-12);
+    assert!((m.rms_h.unwrap() - 1.0).abs() < 1e-9, "{:?}", m.rms_h);
+    assert!((m.max_h.unwrap() - 1.0).abs() < 1e-9);
+    // Along one face normal: 1/√2 of the offset is along the bisector, away from the rounding.
+    let bias = m.offset_to_rounding_h.unwrap();
+    assert!((bias + 0.5f64.sqrt()).abs() < 1e-9, "{bias}");
+    assert!(m.poorly_found.is_empty() && m.spurious.is_empty());
+    let total: f64 = gt.edges.iter().map(|e| e.length).sum();
+    assert!((m.true_length_h - total / h).abs() < 1e-9);
+}
+
+#[test]
+fn edges_moved_onto_the_rounding_have_a_positive_bias() {
+    let scan = box_truth();
+    let gt = &scan.ground_truth;
+    let h = gt.spacing;
+    // 0.5 h inwards along the bisector of every (convex) box edge, 1 h short of each end so
+    // that no other edge is nearer.
+    let found: Vec<Vec<V3>> = gt
+        .edges
+        .iter()
+        .map(|e| {
+            let inward = scale(unit(add(e.normals[0], e.normals[1])), -0.5 * h);
+            let d = scale(unit(sub(e.end, e.start)), h);
+            vec![add(add(e.start, d), inward), add(sub(e.end, d), inward)]
+        })
+        .collect();
+    let m = edge_metrics(&found, gt, None, h);
+    assert!((m.offset_to_rounding_h.unwrap() - 0.5).abs() < 1e-9);
+    assert!((m.rms_h.unwrap() - 0.5).abs() < 1e-9);
+}
+
+#[test]
+fn edges_reported_twice_have_duplication_two_and_full_precision() {
+    let scan = box_truth();
+    let gt = &scan.ground_truth;
+    let mut found: Vec<Vec<V3>> = gt.edges.iter().map(|e| vec![e.start, e.end]).collect();
+    found.extend(gt.edges.iter().map(|e| vec![e.end, e.start]));
+    let m = edge_metrics(&found, gt, None, gt.spacing);
+    assert_eq!((m.recall, m.precision), (Some(1.0), Some(1.0)));
+    assert!((m.duplication.unwrap() - 2.0).abs() < 1e-12);
+    assert_eq!(m.found, 24);
+}
+
+#[test]
+fn half_of_one_edge_lowers_recall_by_its_share() {
+    let scan = box_truth();
+    let gt = &scan.ground_truth;
+    let h = gt.spacing;
+    let e = &gt.edges[3];
+    let mid = scale(add(e.start, e.end), 0.5);
+    let m = edge_metrics(&[vec![e.start, mid]], gt, None, h);
+    let total: f64 = gt.edges.iter().map(|e| e.length).sum();
+    // Half of edge 3, the 2 h of it beyond the found half's end that are within the
+    // tolerance, and the first 2 h of each of the two edges meeting at its start.
+    let expected = (0.5 * e.length + 2.0 * h + 2.0 * 2.0 * h) / total;
+    assert!(
+        (m.recall.unwrap() - expected).abs() < 1e-12,
+        "{:?} vs {expected}",
+        m.recall
+    );
+    assert_eq!(m.precision, Some(1.0));
+    assert!(m.rms_h.unwrap() < 1e-12);
+    assert_eq!(m.poorly_found.len(), 12);
+    let poor = m.poorly_found.iter().find(|p| p.id == e.polyline).unwrap();
+    assert!((poor.matched_share - (0.5 + 2.0 * h / e.length)).abs() < 1e-12);
+}
+
+#[test]
+fn a_spurious_edge_on_a_face_lowers_precision() {
+    let scan = box_truth();
+    let gt = &scan.ground_truth;
+    let h = gt.spacing;
+    let f = &gt.faces[0];
+    // A 10 h segment in the middle of a face, far from every edge.
+    let d = perpendicular(f.normal);
+    let centre = scan
+        .truth
+        .iter()
+        .filter(|t| t.face == 0)
+        .max_by(|a, b| a.edge_distance.total_cmp(&b.edge_distance))
+        .unwrap()
+        .surface;
+    let spurious_edge = vec![
+        add(centre, scale(d, -5.0 * h)),
+        add(centre, scale(d, 5.0 * h)),
+    ];
+    let mut found: Vec<Vec<V3>> = gt.edges.iter().map(|e| vec![e.start, e.end]).collect();
+    found.push(spurious_edge);
+    let m = edge_metrics(&found, gt, None, h);
+    let total: f64 = gt.edges.iter().map(|e| e.length).sum::<f64>() / h;
+    assert!((m.precision.unwrap() - total / (total + 10.0)).abs() < 1e-12);
+    assert_eq!(m.recall, Some(1.0));
+    assert_eq!(m.spurious.len(), 1);
+    assert_eq!(m.spurious[0].id, 12);
+    assert_eq!(m.spurious[0].matched_share, 0.0);
+}
+
+fn truth_at(edge_distance: f64, abnormal: bool, outlier: bool) -> PointTruth {
+    PointTruth {
+        surface: [0.0; 3],
+        edge_distance,
+        nearest_edge: 0,
+        face: 0,
+        abnormal,
+        outlier,
+    }
+}
+
+#[test]
+fn rectification_of_hand_made_points() {
+    // Surface z = 0, h = 2. Two abnormal points 1 and 3 above it end 0.2 and 0.2 above: mean
+    // 2 → 0.2, i.e. 1 h → 0.1 h, ratio 0.1. An outlier moved far is ignored. Of the two points
+    // 10 h from the edges one changed by one ulp: it counts.
+    let h = 2.0;
+    let positions = [
+        [0.0, 0.0, 1.0],
+        [0.0, 0.0, 3.0],
+        [5.0, 5.0, 50.0],
+        [9.0, 9.0, 0.5],
+        [8.0, 8.0, 0.5],
+        [0.0, 1.0, 0.25],
+    ];
+    let mut rectified = positions;
+    rectified[0][2] = 0.2;
+    rectified[1][2] = -0.2;
+    rectified[2][2] = 0.0;
+    rectified[3][2] = f64::from_bits(0.5f64.to_bits() + 1);
+    let moved = [true, true, true, false, false, false];
+    let truth = [
+        truth_at(1.0, true, false),
+        truth_at(1.0, true, false),
+        truth_at(30.0, false, true),
+        truth_at(20.0, false, false),
+        truth_at(20.0, false, false),
+        // Within 4 h of an edge, not abnormal: neither kind.
+        truth_at(7.9, false, false),
+    ];
+    let m = rectify_metrics(&positions, &rectified, &moved, &truth, h, |p| p[2].abs());
+    assert_eq!((m.abnormal_points, m.abnormal_moved), (2, 2));
+    assert!((m.before_h.unwrap() - 1.0).abs() < 1e-15);
+    assert!((m.after_h.unwrap() - 0.1).abs() < 1e-15);
+    assert!((m.ratio.unwrap() - 0.1).abs() < 1e-15);
+    assert_eq!((m.away_points, m.away_moved, m.moved_points), (2, 1, 3));
+}
+
+#[test]
+fn candidates_against_true_edge_points() {
+    let h = 1.0;
+    let truth = [
+        truth_at(0.5, true, false),
+        truth_at(1.5, true, false),
+        truth_at(2.5, false, false),
+        truth_at(9.0, false, false),
+        truth_at(0.1, false, true),
+    ];
+    let cand = [true, false, true, false, true];
+    let m = candidate_metrics(&cand, &truth, h);
+    assert_eq!(m.count, 3);
+    assert_eq!(m.recall, Some(0.5));
+    assert!((m.precision.unwrap() - 1.0 / 3.0).abs() < 1e-15);
+}
+
+fn scored(kind: Kind) -> CaseResult {
+    let (cases, _) = suite(Some(&["box".into()]), 1000, 1, None).unwrap();
+    let mut r = CaseResult::unscored(&cases[0]);
+    r.kind = kind;
+    r.corners = Some(corner_metrics(&[], &[], None, 1.0));
+    r.edges = Some(EdgeMetrics {
+        true_polylines: 12,
+        true_segments: 12,
+        found: 12,
+        true_length_h: 100.0,
+        found_length_h: 100.0,
+        recall: Some(0.99),
+        precision: Some(0.97),
+        duplication: Some(1.0),
+        rms_h: Some(0.02),
+        mean_h: Some(0.01),
+        max_h: Some(0.1),
+        offset_to_rounding_h: Some(0.0),
+        oracle_rms_h: None,
+        oracle_recall: None,
+        ratio_to_oracle: None,
+        poorly_found: Vec::new(),
+        spurious: Vec::new(),
+    });
+    r.rectify = Some(RectifyMetrics {
+        abnormal_points: 10,
+        abnormal_moved: 10,
+        before_h: Some(1.0),
+        after_h: Some(0.3),
+        ratio: Some(0.3),
+        away_points: 100,
+        away_moved: 0,
+        moved_points: 10,
+    });
+    r
+}
+
+#[test]
+fn verdicts_follow_the_issue_thresholds() {
+    let r = scored(Kind::Polyhedral);
+    let c = checks(Kind::Polyhedral, true, &r);
+    let get = |n: &str| c.iter().find(|c| c.name == n).unwrap();
+    assert!(get("edge recall").pass);
+    assert!(!get("edge precision").pass);
+    assert!(get("edge RMS (h)").pass);
+    // Nothing found: corner precision and error are undefined, which fails.
+    assert!(!get("corner precision").pass && get("corner precision").value.is_none());
+    assert!(!get("mean corner error (h)").pass);
+    assert!(get("rectified / raw distance").pass); // 0.3 is allowed
+    assert!(get("points away from edges moved").pass);
+    // No accuracy checks for the noisy boxes.
+    assert!(
+        checks(Kind::Polyhedral, false, &r)
+            .iter()
+            .all(|c| c.name != "edge RMS (h)")
+    );
+    // Curved meshes need 0.9 only.
+    let c = checks(Kind::Curved, false, &r);
+    assert!(c.iter().all(|c| c.pass), "{c:?}");
+    // The sphere must find nothing.
+    let c = checks(Kind::Smooth, false, &r);
+    let edges = c.iter().find(|c| c.name == "edges found").unwrap();
+    assert_eq!((edges.value, edges.pass), (Some(12.0), false));
+    assert!(c.iter().find(|c| c.name == "corners found").unwrap().pass);
+}
+
+#[test]
+fn oracle_of_a_noisy_box_is_far_better_than_a_spacing() {
+    let scan = synth::generate(&SynthParams {
+        sampling: Sampling::Points(40_000),
+        noise: 0.15,
+        round: 1.5,
+        rotate: true,
+        translate: FAR,
+        seed: 3,
+        ..SynthParams::default()
+    })
+    .unwrap();
+    let gt = &scan.ground_truth;
+    let h = gt.spacing;
+    let o = oracle::fit(gt, &scan.cloud.positions, &scan.truth);
+    assert!(o.planes.iter().all(Option::is_some));
+    assert!((o.margin - 4.5 * h).abs() < 1e-9 * h, "{}", o.margin / h);
+    assert!(
+        o.face_points.iter().all(|&n| n > 1000),
+        "{:?}",
+        o.face_points
+    );
+    let true_corners: Vec<V3> = gt.corners.iter().map(|c| c.position).collect();
+    for (c, t) in o.corners.iter().zip(&true_corners) {
+        let e = dist(c.unwrap(), *t) / h;
+        assert!(e < 0.05, "oracle corner error {e} h");
+    }
+    let m = edge_metrics(&[], gt, Some(&o.edges), h);
+    let rms = m.oracle_rms_h.unwrap();
+    assert!(rms < 0.03, "oracle edge RMS {rms} h");
+    assert!((m.oracle_recall.unwrap() - 1.0).abs() < 1e-9);
+}
+
+#[test]
+fn sphere_case_runs_and_has_nothing_to_find() {
+    let (cases, _) = suite(Some(&["sphere".into()]), 20_000, 1, None).unwrap();
+    let r = run_case(&cases[0], &Settings::default());
+    assert_eq!(r.error, None);
+    let c = r.corners.as_ref().unwrap();
+    assert_eq!((c.truth, c.recall), (0, None));
+    let e = r.edges.as_ref().unwrap();
+    assert_eq!((e.true_segments, e.recall), (0, None));
+    assert_eq!(r.oracle_margin_h, None);
+    let x = r.rectify.as_ref().unwrap();
+    assert_eq!((x.abnormal_points, x.ratio), (0, None));
+    assert!(x.away_points > 15_000);
+    assert!(r.checks.iter().any(|c| c.name == "edges found"));
+    assert_eq!(r.pass, r.checks.iter().all(|c| c.pass));
+    let m = r.measured.unwrap();
+    assert!(m.spacing_h > 0.8 && m.spacing_h < 1.1, "{m:?}");
+}

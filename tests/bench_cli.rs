@@ -1,0 +1,342 @@
+//! `sharpedge bench`, run as the real binary on a tiny suite: the JSON's keys and values
+//! against what is known of the simulated box, the table, determinism across thread counts,
+//! and bad options.
+
+use std::path::Path;
+use std::process::Command;
+
+use serde_json::Value;
+
+fn bench(args: &[&str], dir: &Path) -> (bool, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_sharpedge"))
+        .arg("bench")
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .expect("running sharpedge");
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+fn read_json(path: &Path) -> Value {
+    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+}
+
+fn f(v: &Value) -> f64 {
+    v.as_f64().unwrap_or_else(|| panic!("{v} is not a number"))
+}
+
+/// A number in [0, 1], or null (undefined).
+fn share_or_null(v: &Value) {
+    assert!(v.is_null() || (0.0..=1.0).contains(&f(v)), "{v}");
+}
+
+#[test]
+fn tiny_box_suite_writes_sane_json_and_a_table() {
+    let dir = tempfile::tempdir().unwrap();
+    let (ok, out, err) = bench(
+        &[
+            "--cases",
+            "box",
+            "--points",
+            "20000",
+            "--threads",
+            "2",
+            "--out",
+            "b.json",
+        ],
+        dir.path(),
+    );
+    assert!(ok, "{err}");
+    assert!(
+        out.contains("bench: 20000 points per case, seed 1, 2 threads"),
+        "{out}"
+    );
+    assert!(out.lines().any(|l| l.starts_with("box ")), "{out}");
+    assert!(out.contains("wrote b.json"), "{out}");
+
+    let j = read_json(&dir.path().join("b.json"));
+    for key in [
+        "sharpedge",
+        "points",
+        "seed",
+        "threads",
+        "tolerances",
+        "cases",
+        "skipped",
+        "seconds",
+        "slowest_case",
+        "passed",
+        "failed",
+        "settings",
+    ] {
+        assert!(j.get(key).is_some(), "missing {key}");
+    }
+    assert_eq!(j["points"], 20000);
+    assert_eq!(j["threads"], 2);
+    assert_eq!(j["tolerances"]["corner_h"], 3.0);
+    assert_eq!(j["tolerances"]["edge_h"], 2.0);
+    assert_eq!(j["cases"].as_array().unwrap().len(), 1);
+    assert_eq!(j["skipped"].as_array().unwrap().len(), 0);
+    assert_eq!(j["slowest_case"], "box");
+
+    let c = &j["cases"][0];
+    assert_eq!(c["name"], "box");
+    assert_eq!(c["kind"], "polyhedral");
+    assert!(c["error"].is_null(), "{}", c["error"]);
+    let n = f(&c["points"]);
+    assert!((n / 20_000.0 - 1.0).abs() < 0.02, "{n}");
+    // The box is 100 x 80 x 60 (surface 37,600) sampled with h = sqrt(area / N); its 12 edges
+    // are 960 long.
+    let h = f(&c["spacing"]);
+    assert!((h - (37_600.0f64 / 20_000.0).sqrt()).abs() < 1e-12, "{h}");
+    assert_eq!(c["noise_h"], 0.15);
+    assert_eq!(c["round_h"], 1.5);
+    assert_eq!(c["params"]["rotate"], true);
+
+    let corners = &c["corners"];
+    assert_eq!(corners["true"], 8);
+    let found = corners["found"].as_u64().unwrap();
+    let matched = corners["matched"].as_u64().unwrap();
+    assert!(matched <= found.min(8));
+    share_or_null(&corners["recall"]);
+    share_or_null(&corners["precision"]);
+    assert_eq!(
+        corners["missed"].as_array().unwrap().len() as u64,
+        8 - matched
+    );
+    assert_eq!(
+        corners["spurious"].as_array().unwrap().len() as u64,
+        found - matched
+    );
+    // The oracle: planes fitted to 0.15 h noise over thousands of points per face.
+    assert!(
+        f(&corners["oracle_h"]["mean"]) < 0.1,
+        "{}",
+        corners["oracle_h"]
+    );
+
+    let edges = &c["edges"];
+    assert_eq!(edges["true_segments"], 12);
+    assert_eq!(edges["true_polylines"], 12);
+    assert!((f(&edges["true_length_h"]) - 960.0 / h).abs() < 1e-9 * 960.0 / h);
+    share_or_null(&edges["recall"]);
+    share_or_null(&edges["precision"]);
+    assert!(
+        f(&edges["oracle_rms_h"]) < 0.05,
+        "{}",
+        edges["oracle_rms_h"]
+    );
+    assert!((f(&edges["oracle_recall"]) - 1.0).abs() < 1e-9);
+    if !edges["rms_h"].is_null() {
+        // Only the matched part counts: within the 2 h tolerance.
+        assert!(f(&edges["rms_h"]) <= 2.0 && f(&edges["max_h"]) <= 2.0);
+    }
+
+    let r = &c["rectify"];
+    assert!(r["abnormal_points"].as_u64().unwrap() > 1000);
+    // Rounding 1.5 h and noise 0.15 h: the raw abnormal points are a fraction of h off.
+    let before = f(&r["before_h"]);
+    assert!(before > 0.1 && before < 1.0, "{before}");
+    assert!(r["away_points"].as_u64().unwrap() > 10_000);
+
+    let m = &c["measured"];
+    assert!(f(&m["spacing_h"]) > 0.5 && f(&m["spacing_h"]) < 1.5, "{m}");
+    assert!(f(&c["seconds"]["total"]) > 0.0);
+    assert!(!c["seconds"]["stages"].as_array().unwrap().is_empty());
+    assert!((f(&c["oracle_margin_h"]) - 4.5).abs() < 1e-9);
+
+    let checks = c["checks"].as_array().unwrap();
+    let names: Vec<&str> = checks.iter().map(|k| k["name"].as_str().unwrap()).collect();
+    for want in [
+        "corner recall",
+        "corner precision",
+        "edge recall",
+        "edge precision",
+        "mean corner error (h)",
+        "edge RMS (h)",
+        "rectified / raw distance",
+        "points away from edges moved",
+    ] {
+        assert!(names.contains(&want), "{names:?}");
+    }
+    let all_pass = checks.iter().all(|k| k["pass"] == true);
+    assert_eq!(c["pass"], all_pass);
+    assert_eq!(j["passed"], u64::from(all_pass));
+    // The table's verdict agrees with the JSON.
+    let verdict = if all_pass { "PASS" } else { "FAIL" };
+    assert!(
+        out.lines()
+            .any(|l| l.starts_with("box ") && l.contains(verdict)),
+        "{out}"
+    );
+}
+
+/// Everything but wall times and the thread count.
+fn without_times(mut j: Value) -> Value {
+    j["seconds"] = Value::Null;
+    j["threads"] = Value::Null;
+    j["settings"]["threads"] = Value::Null;
+    for c in j["cases"].as_array_mut().unwrap() {
+        c["seconds"] = Value::Null;
+    }
+    j
+}
+
+#[test]
+fn json_on_stdout_equals_the_file_and_is_the_same_for_one_and_two_threads() {
+    let dir = tempfile::tempdir().unwrap();
+    let args = |t: &'static str, out: &'static str| {
+        [
+            "--cases",
+            "pyramid",
+            "--points",
+            "20000",
+            "--seed",
+            "5",
+            "--threads",
+            t,
+            "--out",
+            out,
+            "--json",
+            "-q",
+        ]
+    };
+    let (ok, out1, err) = bench(&args("1", "one.json"), dir.path());
+    assert!(ok, "{err}");
+    let stdout: Value = serde_json::from_str(&out1).expect("stdout is the JSON");
+    let one = read_json(&dir.path().join("one.json"));
+    assert_eq!(stdout, one);
+    assert_eq!(one["seed"], 5);
+    let (ok, _, err) = bench(&args("2", "two.json"), dir.path());
+    assert!(ok, "{err}");
+    let two = read_json(&dir.path().join("two.json"));
+    assert_eq!(without_times(one), without_times(two));
+}
+
+#[test]
+fn unknown_case_is_an_error_naming_the_valid_ones() {
+    let dir = tempfile::tempdir().unwrap();
+    let (ok, _, err) = bench(&["--cases", "box,cube", "-q"], dir.path());
+    assert!(!ok);
+    assert!(err.contains("--cases: unknown case \"cube\""), "{err}");
+    assert!(
+        err.contains("box, lblock, step, wedge, prism6, prism8"),
+        "{err}"
+    );
+    assert!(!dir.path().join("bench.json").exists());
+}
+
+#[test]
+fn unwritable_out_folder_fails_before_running() {
+    let dir = tempfile::tempdir().unwrap();
+    let t = std::time::Instant::now();
+    let (ok, _, err) = bench(
+        &["--cases", "box", "--out", "missing/folder/b.json", "-q"],
+        dir.path(),
+    );
+    assert!(!ok);
+    assert!(
+        err.contains("missing/folder: cannot write into the folder of --out"),
+        "{err}"
+    );
+    // No case ran (a 200k box takes about a second).
+    assert!(t.elapsed().as_secs_f64() < 5.0);
+}
+
+#[test]
+fn mesh_cases_run_or_are_skipped_with_a_note() {
+    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data");
+    let dir = tempfile::tempdir().unwrap();
+    let empty = dir.path().join("empty");
+    std::fs::create_dir(&empty).unwrap();
+    // An empty data folder: the mesh case is skipped with its reason, not an error.
+    let (ok, out, err) = bench(
+        &[
+            "--cases",
+            "fandisk",
+            "--data",
+            empty.to_str().unwrap(),
+            "--out",
+            "s.json",
+        ],
+        dir.path(),
+    );
+    assert!(ok, "{err}");
+    assert!(out.contains("skipped fandisk: "), "{out}");
+    assert!(out.contains("fandisk.off not found"), "{out}");
+    let j = read_json(&dir.path().join("s.json"));
+    assert_eq!(j["cases"].as_array().unwrap().len(), 0);
+    assert_eq!(j["skipped"][0]["case"], "fandisk");
+
+    if !data.is_dir() {
+        eprintln!("skipped: ../shared/data absent");
+        return;
+    }
+    let (ok, _, err) = bench(
+        &[
+            "--cases",
+            "fandisk",
+            "--points",
+            "20000",
+            "--data",
+            data.to_str().unwrap(),
+            "--out",
+            "m.json",
+            "-q",
+        ],
+        dir.path(),
+    );
+    assert!(ok, "{err}");
+    let j = read_json(&dir.path().join("m.json"));
+    let c = &j["cases"][0];
+    assert_eq!(c["kind"], "curved");
+    assert!(c["error"].is_null(), "{}", c["error"]);
+    // SOURCES.md: 722 sharp mesh edges in 35 polylines, 23 corners; no oracle on curves.
+    assert_eq!(c["edges"]["true_segments"], 722);
+    assert_eq!(c["edges"]["true_polylines"], 35);
+    assert_eq!(c["corners"]["true"], 23);
+    assert!(c["edges"]["oracle_rms_h"].is_null());
+    assert!(c["corners"]["oracle_h"].is_null());
+    let names: Vec<&str> = c["checks"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|k| k["name"].as_str().unwrap())
+        .collect();
+    assert!(names.contains(&"edge recall") && !names.contains(&"corner recall"));
+}
+
+#[test]
+fn the_pipeline_file_is_read_and_its_errors_name_it() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("bad.toml"), "seed = 3\nbogus = 1\n").unwrap();
+    let (ok, _, err) = bench(
+        &["--cases", "box", "--config", "bad.toml", "-q"],
+        dir.path(),
+    );
+    assert!(!ok);
+    assert!(err.contains("bad.toml:2: bogus: unknown field"), "{err}");
+
+    std::fs::write(dir.path().join("good.toml"), "seed = 3\n").unwrap();
+    let (ok, out, err) = bench(
+        &[
+            "--cases",
+            "box-30k",
+            "--config",
+            "good.toml",
+            "--out",
+            "g.json",
+        ],
+        dir.path(),
+    );
+    assert!(ok, "{err}");
+    assert!(out.contains("config good.toml"), "{out}");
+    let j = read_json(&dir.path().join("g.json"));
+    assert_eq!(j["config"], "good.toml");
+    assert_eq!(j["settings"]["seed"], 3);
+    assert_eq!(j["cases"][0]["points"].as_u64().unwrap() / 1000, 29);
+}
