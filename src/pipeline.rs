@@ -129,12 +129,14 @@ pub fn run(settings: &Settings) -> Result<Summary> {
 /// The stages between reading and writing, on a cloud in memory.
 pub fn process(cloud: Cloud, settings: &Settings, clock: &mut impl LapClock) -> Result<Outcome> {
     check_cloud(&cloud)?;
+    let path = cloud.source.path.clone();
     let spacing =
         neighbours::mean_spacing(&cloud.positions, 50_000).ok_or_else(|| Error::BadCloud {
-            path: cloud.source.path.clone(),
+            path: path.clone(),
             what: "all points are identical: there is no surface to analyse".into(),
         })?;
-    let scale = features::estimate_scale(&cloud.positions, spacing, &settings.features, 20_000)?;
+    let scale = features::estimate_scale(&cloud.positions, spacing, &settings.features, 20_000)
+        .map_err(|e| in_file(&path, e))?;
     tracing::info!(
         "spacing {:.6}, noise sigma {:.6} ({:.2} spacings), radius {:.6}",
         scale.spacing,
@@ -143,7 +145,7 @@ pub fn process(cloud: Cloud, settings: &Settings, clock: &mut impl LapClock) -> 
         scale.radius
     );
     clock.lap("scale");
-    let grid = Grid::new(&cloud.positions, scale.radius)?;
+    let grid = Grid::new(&cloud.positions, scale.radius).map_err(|e| in_file(&path, e))?;
     clock.lap("neighbours");
     let progress = Progress::start("features", cloud.len() as u64, "points");
     let features = features::features(
@@ -293,6 +295,18 @@ fn check_cloud(cloud: &Cloud) -> Result<()> {
             ),
         }),
         _ => Ok(()),
+    }
+}
+
+/// Stage errors that do not say which file they are about (a degenerate neighbourhood, too
+/// few points) get the input file, so a batch log names the culprit.
+fn in_file(path: &Path, e: Error) -> Error {
+    match e {
+        Error::Degenerate { .. } | Error::TooFewPoints { .. } => Error::BadCloud {
+            path: path.to_path_buf(),
+            what: e.to_string(),
+        },
+        e => e,
     }
 }
 
