@@ -29,3 +29,46 @@ fn stage_errors_name_the_input_file() {
         &c.out(),
     );
 }
+
+/// Regression: a cloud on a straight line failed in the noise estimate with "noise estimate:
+/// degenerate input: no point has 8 neighbours within 0.8944; the cloud is too sparse for its
+/// spacing", a message that named neither the file nor the real problem; and the same line
+/// with every point twice succeeded with an empty result.
+#[test]
+fn collinear_points_are_rejected_naming_the_file() {
+    let c = Case::new();
+    let line: Vec<[f64; 3]> = (0..2000)
+        .map(|i| [i as f64 * 0.1, i as f64 * 0.2, 0.0])
+        .collect();
+    c.write("line.ply", &ascii_ply(&line));
+    let r = c.run("line.ply", &[]);
+    assert_failed_cleanly(
+        &r,
+        &[
+            "line.ply: all 2000 points lie on one straight line",
+            "along (0.447214, 0.894427, 0.000000)",
+            "no surface to analyse",
+        ],
+        &c.out(),
+    );
+    let twice: Vec<[f64; 3]> = line.iter().flat_map(|p| [*p, *p]).collect();
+    c.write("line2.ply", &ascii_ply(&twice));
+    let r = c.run("line2.ply", &[]);
+    assert_failed_cleanly(
+        &r,
+        &["line2.ply: all 4000 points lie on one straight line"],
+        &c.out(),
+    );
+    // Far from the origin, in double: still a line (the test is relative to the spacing).
+    let far: Vec<[f64; 3]> = line
+        .iter()
+        .map(|p| [p[0] + 4.0e6, p[1] + 4.0e6, 100.0])
+        .collect();
+    write_raw_ply(&c.path().join("far.ply"), &far);
+    let r = c.run("far.ply", &[]);
+    assert_failed_cleanly(
+        &r,
+        &["far.ply: all 2000 points lie on one straight line"],
+        &c.out(),
+    );
+}
