@@ -382,6 +382,13 @@ fn in_file(path: &Path, e: Error) -> Error {
 /// Creates the output folder and checks that it is writable before any work is done, so a
 /// typo in `--out` costs a second, not a whole run.
 fn prepare_output_dir(dir: &Path) -> Result<()> {
+    if dir.exists() && !dir.is_dir() {
+        return Err(Error::io(
+            dir,
+            "cannot use as output folder",
+            std::io::Error::other("it is a file, not a folder; choose another --out or output.dir"),
+        ));
+    }
     std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, "cannot create output folder", e))?;
     tempfile::NamedTempFile::new_in(dir)
         .map(drop)

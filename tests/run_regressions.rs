@@ -72,3 +72,22 @@ fn collinear_points_are_rejected_naming_the_file() {
         &c.out(),
     );
 }
+
+/// Regression: `--out` naming an existing regular file said "cannot create output folder:
+/// File exists (os error 17)", which does not tell that the name is taken by a file.
+#[test]
+fn output_folder_that_is_a_regular_file_says_so() {
+    let c = Case::new();
+    synth(c.path(), "scan.ply", BOX);
+    c.write("afile", "not a folder\n");
+    let r = sharpedge(c.path(), &["run", "pipeline.toml", "--out", "afile"]);
+    assert_failed_cleanly(
+        &r,
+        &["afile: cannot use as output folder: it is a file, not a folder"],
+        &c.out(),
+    );
+    assert_eq!(
+        std::fs::read_to_string(c.path().join("afile")).unwrap(),
+        "not a folder\n"
+    );
+}
