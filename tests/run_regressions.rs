@@ -91,3 +91,49 @@ fn output_folder_that_is_a_regular_file_says_so() {
         "not a folder\n"
     );
 }
+
+/// Regression: the three outputs were each atomic but written one after the other, so when
+/// the second or third could not be put in place the first stayed behind: a failed run left
+/// a fresh rectified.ply beside no (or an older) report.json.
+#[test]
+fn no_partial_output_when_a_later_output_cannot_be_placed() {
+    let c = Case::new();
+    synth(c.path(), "scan.ply", BOX);
+    for blocked in ["features.ply", "report.json"] {
+        let out = c.path().join(format!("out_{blocked}"));
+        // A folder where an output file must go: the rename onto it fails.
+        std::fs::create_dir_all(out.join(blocked)).unwrap();
+        let r = sharpedge(
+            c.path(),
+            &["run", "pipeline.toml", "--out", out.to_str().unwrap()],
+        );
+        assert_eq!(r.code, Some(1), "{r:#?}");
+        assert!(!r.stderr.contains("panicked"), "{}", r.stderr);
+        assert!(
+            r.stderr.contains(&format!(
+                "{}: cannot write this output: a folder of that name is in the way",
+                out.join(blocked).display()
+            )),
+            "{}",
+            r.stderr
+        );
+        // Only the folder that was in the way; no output, no staging folder.
+        assert_eq!(entries(&out), [blocked], "{}", out.display());
+        assert_eq!(entries(&out.join(blocked)), Vec::<String>::new());
+    }
+    // Outputs of an earlier run stay as they were when a new run cannot complete.
+    let out = c.path().join("out_earlier");
+    let args = ["-q", "run", "pipeline.toml", "--out", out.to_str().unwrap()];
+    sharpedge(c.path(), &args).assert_ok();
+    let before = std::fs::read(out.join("rectified.ply")).unwrap();
+    std::fs::remove_file(out.join("report.json")).unwrap();
+    std::fs::create_dir(out.join("report.json")).unwrap();
+    config(c.path(), "seed = 99\n[input]\npath = \"scan.ply\"\n");
+    let r = sharpedge(c.path(), &args);
+    assert_eq!(r.code, Some(1), "{r:#?}");
+    assert_eq!(
+        entries(&out),
+        ["features.ply", "rectified.ply", "report.json"]
+    );
+    assert_eq!(std::fs::read(out.join("rectified.ply")).unwrap(), before);
+}
