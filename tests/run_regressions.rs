@@ -137,3 +137,22 @@ fn no_partial_output_when_a_later_output_cannot_be_placed() {
     );
     assert_eq!(std::fs::read(out.join("rectified.ply")).unwrap(), before);
 }
+
+/// Regression: type errors named Rust types ("expected i64", "expected f64"), which a user
+/// editing TOML cannot be expected to know.
+#[test]
+fn config_type_errors_say_integer_and_number_not_rust_types() {
+    let e = bad_config(
+        "threads = 1.5\n",
+        "pipeline.toml:1: threads: invalid type: floating point `1.5`, expected an integer",
+    );
+    assert!(!e.contains("i64"), "{e}");
+    bad_config(
+        "[fit.pso]\nw = \"fast\"\n",
+        "pipeline.toml:2: fit.pso.w: invalid type: string \"fast\", expected a number",
+    );
+    bad_config(
+        "[fit.pso]\niterations_2d = 2.5\n",
+        "pipeline.toml:2: fit.pso.iterations_2d: invalid type: floating point `2.5`, expected an integer",
+    );
+}
