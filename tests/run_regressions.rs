@@ -156,3 +156,33 @@ fn config_type_errors_say_integer_and_number_not_rust_types() {
         "pipeline.toml:2: fit.pso.iterations_2d: invalid type: floating point `2.5`, expected an integer",
     );
 }
+
+/// Regression: log lines carried ANSI colour codes (ESC[2m, ESC[32m) even when stderr was a
+/// file or a pipe, so batch logs were full of escape sequences.
+#[test]
+fn verbose_log_has_no_colour_codes_when_not_a_terminal() {
+    let dir = job();
+    let r = sharpedge(dir.path(), &["-v", "run", "pipeline.toml"]);
+    r.assert_ok();
+    assert!(r.stderr.contains(" INFO "), "{}", r.stderr);
+    assert!(
+        !r.stderr.contains('\u{1b}'),
+        "escape codes in a piped log: {:?}",
+        r.stderr.lines().next()
+    );
+    // The same for warnings, shown without -v.
+    let pts: Vec<[f64; 3]> = {
+        let mut p = flat_plane(40);
+        p[3] = [f64::NAN, 0.0, 0.0];
+        p
+    };
+    write_raw_ply(&dir.path().join("nan.ply"), &pts);
+    config(
+        dir.path(),
+        "[input]\npath = \"nan.ply\"\nnon_finite = \"drop\"\n",
+    );
+    let r = sharpedge(dir.path(), &["run", "pipeline.toml"]);
+    r.assert_ok();
+    assert!(r.stderr.contains("WARN"), "{}", r.stderr);
+    assert!(!r.stderr.contains('\u{1b}'), "{:?}", r.stderr);
+}
