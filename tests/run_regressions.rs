@@ -186,3 +186,19 @@ fn verbose_log_has_no_colour_codes_when_not_a_terminal() {
     assert!(r.stderr.contains("WARN"), "{}", r.stderr);
     assert!(!r.stderr.contains('\u{1b}'), "{:?}", r.stderr);
 }
+
+/// Regression: `--threads` was not range-checked (pipeline.toml's `threads` is limited to
+/// 4096), so a typo such as `--threads 40000` asked rayon for 40000 spinning OS threads and
+/// brought a 2-core machine to a load of several thousand. The input here does not exist, so
+/// should the check ever go missing again the run still ends at once (the pool is built just
+/// before the input is read) instead of thrashing the machine.
+#[test]
+fn threads_option_out_of_range_is_rejected() {
+    let c = Case::new();
+    let r = c.run("nope.ply", &["--threads", "4097"]);
+    assert_failed_cleanly(
+        &r,
+        &["--threads: must be in [0, 4096] (0 = all cores), got 4097"],
+        &c.out(),
+    );
+}
