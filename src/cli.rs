@@ -220,6 +220,15 @@ fn run(cli: &Cli, a: &RunArgs) -> anyhow::Result<()> {
         settings.output.dir = out.clone();
     }
     if let Some(t) = a.threads {
+        // The range pipeline.toml allows for `threads`: a typo like 40000 must not spawn
+        // 40000 OS threads.
+        if t > 4096 {
+            return Err(sharpedge::Error::Usage {
+                option: "--threads".into(),
+                message: format!("must be in [0, 4096] (0 = all cores), got {t}"),
+            }
+            .into());
+        }
         settings.threads = t;
     }
     let summary = sharpedge::pipeline::run(&settings)?;

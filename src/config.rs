@@ -277,7 +277,7 @@ fn parse_raw(text: &str, path: &Path) -> Result<RawConfig> {
 
 fn toml_error(text: &str, path: &Path, e: &toml::de::Error, key: String) -> Error {
     let line = e.span().map(|s| line_of(text, s.start)).unwrap_or(0);
-    let mut message = e.message().trim().to_string();
+    let mut message = plain_types(e.message().trim());
     if message.starts_with("unknown field") {
         message.push_str("; see the commented pipeline.toml for every key");
     }
@@ -287,6 +287,22 @@ fn toml_error(text: &str, path: &Path, e: &toml::de::Error, key: String) -> Erro
         key: if key.is_empty() { "(file)".into() } else { key },
         message,
     }
+}
+
+/// serde names Rust types in type errors ("expected i64"); users write TOML, where those are
+/// integers and numbers.
+fn plain_types(message: &str) -> String {
+    let Some((head, tail)) = message.rsplit_once(", expected ") else {
+        return message.to_string();
+    };
+    let plain = match tail {
+        "i8" | "i16" | "i32" | "i64" | "u8" | "u16" | "u32" | "u64" | "usize" | "isize" => {
+            "an integer"
+        }
+        "f32" | "f64" => "a number",
+        _ => return message.to_string(),
+    };
+    format!("{head}, expected {plain}")
 }
 
 fn line_of(text: &str, offset: usize) -> usize {

@@ -12,6 +12,11 @@ use tracing_subscriber::util::SubscriberInitExt;
 use tracing_subscriber::{EnvFilter, Layer};
 
 fn init_logging(quiet: bool, verbose: u8) {
+    use std::io::IsTerminal;
+    // Colour codes only for a person at a terminal; batch logs (files, pipes) stay plain text.
+    // NO_COLOR (https://no-color.org) still wins at a terminal.
+    let ansi = std::io::stderr().is_terminal()
+        && std::env::var_os("NO_COLOR").is_none_or(|v| v.is_empty());
     let default = match (quiet, verbose) {
         (true, _) => "error",
         (false, 0) => "warn",
@@ -25,6 +30,7 @@ fn init_logging(quiet: bool, verbose: u8) {
             .with(
                 tracing_subscriber::fmt::layer()
                     .with_writer(std::io::stderr)
+                    .with_ansi(ansi)
                     .with_target(false)
                     .with_filter(filter),
             )
@@ -37,6 +43,7 @@ fn init_logging(quiet: bool, verbose: u8) {
         .with(
             tracing_subscriber::fmt::layer()
                 .with_writer(bars.get_stderr_writer())
+                .with_ansi(ansi)
                 .with_target(false)
                 .with_filter(filter),
         )

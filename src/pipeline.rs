@@ -129,12 +129,18 @@ pub fn run(settings: &Settings) -> Result<Summary> {
 /// The stages between reading and writing, on a cloud in memory.
 pub fn process(cloud: Cloud, settings: &Settings, clock: &mut impl LapClock) -> Result<Outcome> {
     check_cloud(&cloud)?;
+    let path = cloud.source.path.clone();
     let spacing =
         neighbours::mean_spacing(&cloud.positions, 50_000).ok_or_else(|| Error::BadCloud {
-            path: cloud.source.path.clone(),
-            what: "all points are identical: there is no surface to analyse".into(),
+            path: path.clone(),
+            what: "cannot measure the point spacing: the sampled points have no distinct \
+                   neighbour among their 256 nearest (hundreds of exact duplicates of every \
+                   point?); remove the duplicates"
+                .into(),
         })?;
-    let scale = features::estimate_scale(&cloud.positions, spacing, &settings.features, 20_000)?;
+    check_not_collinear(&cloud, spacing)?;
+    let scale = features::estimate_scale(&cloud.positions, spacing, &settings.features, 20_000)
+        .map_err(|e| in_file(&path, e))?;
     tracing::info!(
         "spacing {:.6}, noise sigma {:.6} ({:.2} spacings), radius {:.6}",
         scale.spacing,
@@ -143,7 +149,7 @@ pub fn process(cloud: Cloud, settings: &Settings, clock: &mut impl LapClock) -> 
         scale.radius
     );
     clock.lap("scale");
-    let grid = Grid::new(&cloud.positions, scale.radius)?;
+    let grid = Grid::new(&cloud.positions, scale.radius).map_err(|e| in_file(&path, e))?;
     clock.lap("neighbours");
     let progress = Progress::start("features", cloud.len() as u64, "points");
     let features = features::features(
@@ -282,23 +288,107 @@ impl LapClock for NoClock {
 fn check_cloud(cloud: &Cloud) -> Result<()> {
     let path = cloud.source.path.clone();
     match cloud.len() {
-        0 => Err(Error::BadCloud {
-            path,
-            what: "the cloud has no points".into(),
-        }),
-        n if n < 10 => Err(Error::BadCloud {
+        0 => {
+            return Err(Error::BadCloud {
+                path,
+                what: "the cloud has no points".into(),
+            });
+        }
+        n if n < 10 => {
+            return Err(Error::BadCloud {
+                path,
+                what: format!(
+                    "the cloud has only {n} point(s); edge extraction needs a scanned surface (thousands of points)"
+                ),
+            });
+        }
+        _ => {}
+    }
+    // Checked here, not through the spacing: the spacing skips exact duplicates and would
+    // call a heavily duplicated cloud "identical".
+    let first = cloud.positions[0];
+    if cloud.positions.iter().all(|p| *p == first) {
+        return Err(Error::BadCloud {
             path,
             what: format!(
-                "the cloud has only {n} point(s); edge extraction needs a scanned surface (thousands of points)"
+                "all {} points are identical ({}, {}, {}): there is no surface to analyse",
+                cloud.len(),
+                first[0],
+                first[1],
+                first[2]
             ),
-        }),
-        _ => Ok(()),
+        });
+    }
+    Ok(())
+}
+
+/// Rejects a cloud whose points all lie on one straight line: no surface, so no edge, and
+/// the scale estimate would fail later with a message about density that misleads.
+/// "On the line" means within a thousandth of the spacing of the principal axis (total least
+/// squares line through the centroid), far above f32 rounding of stored coordinates and far
+/// below the width of any scanned strip.
+fn check_not_collinear(cloud: &Cloud, spacing: f64) -> Result<()> {
+    let n = cloud.len() as f64;
+    let mut c = [0.0f64; 3];
+    for p in &cloud.positions {
+        for k in 0..3 {
+            c[k] += p[k] / n;
+        }
+    }
+    // Two passes (centroid, then moments about it) keep georeferenced offsets out of the sums.
+    let mut m = nalgebra::Matrix3::<f64>::zeros();
+    for p in &cloud.positions {
+        let d = nalgebra::Vector3::new(p[0] - c[0], p[1] - c[1], p[2] - c[2]);
+        m += d * d.transpose();
+    }
+    let eig = nalgebra::SymmetricEigen::new(m);
+    let axis = eig.eigenvectors.column(eig.eigenvalues.imax()).into_owned();
+    let tolerance = 1e-3 * spacing;
+    let off_line = cloud.positions.iter().any(|p| {
+        let d = nalgebra::Vector3::new(p[0] - c[0], p[1] - c[1], p[2] - c[2]);
+        (d - axis * d.dot(&axis)).norm() > tolerance
+    });
+    if off_line {
+        return Ok(());
+    }
+    Err(Error::BadCloud {
+        path: cloud.source.path.clone(),
+        what: format!(
+            "all {} points lie on one straight line (collinear within {tolerance:.3e}, through \
+             ({:.6}, {:.6}, {:.6}) along ({:.6}, {:.6}, {:.6})): there is no surface to analyse",
+            cloud.len(),
+            c[0],
+            c[1],
+            c[2],
+            axis[0],
+            axis[1],
+            axis[2]
+        ),
+    })
+}
+
+/// Stage errors that do not say which file they are about (a degenerate neighbourhood, too
+/// few points) get the input file, so a batch log names the culprit.
+fn in_file(path: &Path, e: Error) -> Error {
+    match e {
+        Error::Degenerate { .. } | Error::TooFewPoints { .. } => Error::BadCloud {
+            path: path.to_path_buf(),
+            what: e.to_string(),
+        },
+        e => e,
     }
 }
 
 /// Creates the output folder and checks that it is writable before any work is done, so a
 /// typo in `--out` costs a second, not a whole run.
 fn prepare_output_dir(dir: &Path) -> Result<()> {
+    if dir.exists() && !dir.is_dir() {
+        return Err(Error::io(
+            dir,
+            "cannot use as output folder",
+            std::io::Error::other("it is a file, not a folder; choose another --out or output.dir"),
+        ));
+    }
     std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, "cannot create output folder", e))?;
     tempfile::NamedTempFile::new_in(dir)
         .map(drop)

@@ -1,8 +1,8 @@
 //! The output contract: rectified.ply, features.ply and report.json.
 //!
 //! Input: the pipeline's `Outcome` (cloud, per-point side arrays, fitted edges and corners),
-//! the settings and the stage timings. Output: three files in the output folder, each written
-//! atomically (temporary file, then rename).
+//! the settings and the stage timings. Output: three files in the output folder, written into
+//! a staging folder there and moved into place together, so a failed run leaves none of them.
 //!
 //! Field names are chosen for the viewers our users have: CloudCompare's command line loads a
 //! custom vertex property only if its name contains `scalar`, MeshLab reads `quality` and
@@ -203,13 +203,55 @@ pub fn write_all(
         encoding: settings.output.encoding,
         precision,
     };
-    let rectified = dir.join("rectified.ply");
-    write_rectified(&rectified, outcome, &opts)?;
-    let features = dir.join("features.ply");
-    write_features(&features, outcome, &opts)?;
-    let report = dir.join("report.json");
-    write_report(&report, outcome, settings, timings)?;
-    Ok(vec![rectified, features, report])
+    // Each file is atomic on its own, but the three are one result: a run that fails on the
+    // second must not leave the first beside an older second. So all three are written into a
+    // staging folder inside `dir` (same file system: renames are atomic) and moved into place
+    // only when all exist, after checking that nothing can stop the renames.
+    let names = ["rectified.ply", "features.ply", "report.json"];
+    for name in names {
+        let to = dir.join(name);
+        if std::fs::symlink_metadata(&to).is_ok_and(|m| m.is_dir()) {
+            return Err(Error::io(
+                &to,
+                "cannot write this output",
+                std::io::Error::other(
+                    "a folder of that name is in the way; move it or choose another output folder",
+                ),
+            ));
+        }
+    }
+    let staging = tempfile::Builder::new()
+        .prefix(".sharpedge-run-")
+        .tempdir_in(dir)
+        .map_err(|e| {
+            Error::io(
+                dir,
+                "cannot create a temporary folder in the output folder (is it writable?)",
+                e,
+            )
+        })?;
+    let staged: Vec<PathBuf> = names.iter().map(|n| staging.path().join(n)).collect();
+    write_rectified(&staged[0], outcome, &opts)?;
+    write_features(&staged[1], outcome, &opts)?;
+    write_report(&staged[2], outcome, settings, timings)?;
+    let mut placed: Vec<PathBuf> = Vec::new();
+    for (from, name) in staged.iter().zip(names) {
+        let to = dir.join(name);
+        if let Err(e) = std::fs::rename(from, &to) {
+            // Only a race can get here (checked above). Take back what this run already
+            // placed: no output beats a mixed one.
+            for p in &placed {
+                let _ = std::fs::remove_file(p);
+            }
+            return Err(Error::io(
+                &to,
+                "cannot move the finished output to this name; no output was written",
+                e,
+            ));
+        }
+        placed.push(to);
+    }
+    Ok(placed)
 }
 
 /// Double coordinates when the input had them, or when float's step at the cloud's magnitude
