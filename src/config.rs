@@ -218,7 +218,7 @@ impl Default for Settings {
             edges: EdgeParams::default(),
             corners: CornerParams::default(),
             rectify: RectifyParams::default(),
-            fit: FitParams::default(),
+            fit: pipeline_fit_default(),
         }
     }
 }
@@ -311,6 +311,19 @@ fn line_of(text: &str, offset: usize) -> usize {
         .filter(|&&b| b == b'\n')
         .count()
         + 1
+}
+
+/// The fit parameters a run uses unless the file says otherwise: the paper's, except that
+/// the constrained corner is scored on the side points only, and a vertex's swarm also starts
+/// at its edges' piecewise meeting point (a scanned vertex lies beyond its data). The paper counts every point,
+/// but on a scan the abnormal-zone points are exactly the ones the corner must not follow
+/// (they pull it into the rounding); `sharpedge experiment` keeps the paper's choice.
+pub fn pipeline_fit_default() -> FitParams {
+    FitParams {
+        include_corner_region: false,
+        seed_with_intersection: true,
+        ..FitParams::default()
+    }
 }
 
 /// The line of `name` (e.g. `pso.w`) in the `[fit]` part of a pipeline file: under
@@ -680,6 +693,14 @@ impl Checker<'_> {
             },
             _ => err,
         })?;
+        let mut fit = raw.fit;
+        // Keys the file does not set take the pipeline's defaults, not the library's.
+        if line_of_fit_key(self.text, "include_corner_region") == 0 {
+            fit.include_corner_region = pipeline_fit_default().include_corner_region;
+        }
+        if line_of_fit_key(self.text, "seed_with_intersection") == 0 {
+            fit.seed_with_intersection = pipeline_fit_default().seed_with_intersection;
+        }
         Ok(Settings {
             seed,
             threads,
@@ -690,7 +711,7 @@ impl Checker<'_> {
             edges,
             corners,
             rectify,
-            fit: raw.fit,
+            fit,
         })
     }
 }

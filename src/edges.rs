@@ -20,7 +20,7 @@ use rand::rngs::SmallRng;
 use rayon::prelude::*;
 
 use crate::features::Scale;
-use crate::fit::{FitParams, ProfileFit, ProfileScratch, fit_profile_2d_with};
+use crate::fit::{FitParams, ProfileFit, ProfileScratch, fit_profile_2d_zone};
 use crate::neighbours::Grid;
 use crate::segment::{Run, Segments, add, dot, norm, pca_line, sub};
 
@@ -128,6 +128,33 @@ pub fn fit_edges(
         .collect()
 }
 
+/// What one pass of slab fits along a centre line gives.
+struct Pass {
+    slabs: Vec<SlabFit>,
+    failed: usize,
+    first_failure: Option<String>,
+    /// (distance from the slab's corner along the face, signed distance to the face's local
+    /// line towards the other face) of every side and corner-region point, for the zone
+    /// estimate.
+    residuals: Vec<(f64, f64)>,
+}
+
+/// The per-run inputs that stay fixed across passes.
+struct RunCtx<'a> {
+    positions: &'a [[f64; 3]],
+    outlier: &'a [bool],
+    grid: &'a Grid,
+    k: usize,
+    scale: &'a Scale,
+    params: &'a EdgeParams,
+    fit: &'a FitParams,
+    t0: f64,
+    t1: f64,
+    /// The run's line, which parametrises the slabs' positions.
+    origin: [f64; 3],
+    direction: [f64; 3],
+}
+
 #[allow(clippy::too_many_arguments)]
 fn fit_run(
     positions: &[[f64; 3]],
@@ -144,72 +171,185 @@ fn fit_run(
 ) -> Result<EdgeFit, String> {
     let run = &segments.runs[k];
     let r = scale.radius;
-    let band = params.band * r;
     // The usable stretch of the run: its extent, pulled back from vertices.
     let mut t0 = run.t_range[0];
     let mut t1 = run.t_range[1];
     for (e, t) in [(0, &mut t0), (1, &mut t1)] {
         if let Some(v) = run.vertices[e] {
-            let tv = dot(
-                sub(segments.vertices[v].position, run.origin),
-                run.direction,
-            );
+            let tv = dot(sub(segments.vertices[v].position, run.origin), run.direction);
             let margin = params.vertex_margin * r;
             *t = if e == 0 { tv + margin } else { tv - margin };
         }
     }
     if t1 - t0 < r {
-        return Err(format!(
-            "edge {k}: too short between its vertices ({:.3})",
-            t1 - t0
-        ));
+        return Err(format!("edge {k}: too short between its vertices ({:.3})", t1 - t0));
     }
-    let centre = Centreline::new(run);
+    let ctx = RunCtx {
+        positions,
+        outlier,
+        grid,
+        k,
+        scale,
+        params,
+        fit,
+        t0,
+        t1,
+        origin: run.origin,
+        direction: run.direction,
+    };
+    // Pass 1 along the run's band axis: where the sharp edge is, roughly, and how wide its
+    // abnormal zone is.
+    let first = slab_pass(&ctx, &Centreline::new(run), 0.0, rng, scratch, out)?;
+    let zone = abnormal_zone(&first.residuals, scale);
+    // Pass 2 along the line (or curve) through pass 1's rectified edge points: slabs exactly
+    // across the edge, the approximate corner on it, and the zone kept out of the side fits.
+    let (line, _, straight) = edge_line(&first.slabs, run.direction, scale, params);
+    let centre = if straight {
+        Centreline::straight(line, run.origin, run.direction, t0, t1, r)
+    } else {
+        Centreline::through(&first.slabs.iter().map(|s| s.corner).collect::<Vec<_>>(), run.origin, run.direction)
+    };
+    let second = slab_pass(&ctx, &centre, zone, rng, scratch, out);
+    let pass = match second {
+        Ok(p) if p.slabs.len() >= 2 => p,
+        _ => first,
+    };
+    let (line, rms, straight) = edge_line(&pass.slabs, run.direction, scale, params);
+    let mut angles: Vec<f64> = pass
+        .slabs
+        .iter()
+        .map(|s| dot(s.faces[0], s.faces[1]).clamp(-1.0, 1.0).acos().to_degrees())
+        .collect();
+    let mid = angles.len() / 2;
+    let dihedral_deg = *angles.select_nth_unstable_by(mid, f64::total_cmp).1;
+    Ok(EdgeFit {
+        run: k,
+        straight,
+        slabs: pass.slabs,
+        line,
+        rms,
+        dihedral_deg,
+        failed_slabs: pass.failed,
+        first_failure: pass.first_failure,
+    })
+}
+
+/// The best line through the slabs' rectified edge points (oriented like `towards`), their
+/// RMS distance to it, and whether that is small enough to call the edge straight. Slab
+/// corners farther than 4 robust sigmas from a first line are left out of the final one.
+fn edge_line(slabs: &[SlabFit], towards: [f64; 3], scale: &Scale, params: &EdgeParams) -> (([f64; 3], [f64; 3]), f64, bool) {
+    let pts: Vec<[f64; 3]> = slabs.iter().map(|s| s.corner).collect();
+    let all: Vec<usize> = (0..pts.len()).collect();
+    let orient = |l: ([f64; 3], [f64; 3])| (l.0, if dot(l.1, towards) < 0.0 { l.1.map(|x| -x) } else { l.1 });
+    let Some(first) = pca_line(&pts, &all).map(orient) else {
+        return ((pts.first().copied().unwrap_or([0.0; 3]), towards), 0.0, true);
+    };
+    let mut d: Vec<f64> = pts.iter().map(|p| point_line_distance(*p, first)).collect();
+    let mut sorted = d.clone();
+    let mid = sorted.len() / 2;
+    let med = *sorted.select_nth_unstable_by(mid, f64::total_cmp).1;
+    let cut = (4.0 * 1.4826 * med).max(1e-12);
+    let keep: Vec<usize> = (0..pts.len()).filter(|&i| d[i] <= cut).collect();
+    let line = if keep.len() >= 2 && keep.len() < pts.len() {
+        pca_line(&pts, &keep).map(orient).unwrap_or(first)
+    } else {
+        first
+    };
+    d = keep.iter().map(|&i| point_line_distance(pts[i], line)).collect();
+    let rms = (d.iter().map(|x| x * x).sum::<f64>() / d.len().max(1) as f64).sqrt();
+    (line, rms, rms <= params.straight_tolerance * scale.spacing)
+}
+
+/// Radius of the abnormal zone around the corner, from the pooled residuals of every slab of
+/// an edge: going out from the corner, the last stretch (half-spacing bins) whose mean
+/// residual towards the other face stands clearly above the faces' own level. Faces are
+/// straight in the profile; a fillet or a lip bends towards the inside of the angle. 0 when no
+/// stretch deviates (a sharp edge).
+fn abnormal_zone(res: &[(f64, f64)], scale: &Scale) -> f64 {
+    if res.len() < 50 {
+        return 0.0;
+    }
+    let w = 0.5 * scale.spacing;
+    let s_max = res.iter().map(|x| x.0).fold(0.0, f64::max);
+    let nbin = ((s_max / w).ceil() as usize).clamp(1, 4096);
+    let mut sum = vec![0.0f64; nbin];
+    let mut cnt = vec![0usize; nbin];
+    for &(s, r) in res {
+        if s < 0.0 {
+            continue;
+        }
+        let b = ((s / w) as usize).min(nbin - 1);
+        sum[b] += r;
+        cnt[b] += 1;
+    }
+    // The faces' level and spread: the outer half of the band.
+    let outer: Vec<f64> = res.iter().filter(|x| x.0 > 0.5 * s_max).map(|x| x.1).collect();
+    if outer.len() < 20 {
+        return 0.0;
+    }
+    let level = outer.iter().sum::<f64>() / outer.len() as f64;
+    let mut dev: Vec<f64> = outer.iter().map(|r| (r - level).abs()).collect();
+    let mid = dev.len() / 2;
+    let sigma = 1.4826 * *dev.select_nth_unstable_by(mid, f64::total_cmp).1;
+    let mut zone = 0.0;
+    for b in 0..nbin {
+        if (b as f64 + 1.0) * w > 0.5 * s_max || cnt[b] < 5 {
+            continue;
+        }
+        let mean = sum[b] / cnt[b] as f64 - level;
+        let se = sigma / (cnt[b] as f64).sqrt();
+        if mean > 3.0 * se && mean > 0.1 * sigma {
+            zone = (b as f64 + 1.5) * w;
+        }
+    }
+    zone
+}
+
+/// One pass of slab fits along `centre`, with the abnormal zone `zone` (0: the propagation
+/// alone decides).
+fn slab_pass(
+    ctx: &RunCtx,
+    centre: &Centreline,
+    zone: f64,
+    rng: &mut SmallRng,
+    scratch: &mut ProfileScratch,
+    out: &mut ProfileFit,
+) -> Result<Pass, String> {
+    let (k, scale, params) = (ctx.k, ctx.scale, ctx.params);
+    let band = params.band * scale.radius;
+    let (t0, t1) = (ctx.t0, ctx.t1);
     // Band points: within `band` of the centre line, inside the usable stretch.
     let mut ids: Vec<u32> = Vec::new();
     for w in centre.points.windows(2) {
-        grid.for_each_near_segment(w[0], w[1], band, |i| ids.push(i));
+        ctx.grid.for_each_near_segment(w[0], w[1], band, |i| ids.push(i));
     }
     if centre.points.len() == 1 {
-        grid.for_each_near_segment(centre.points[0], centre.points[0], band, |i| ids.push(i));
+        ctx.grid.for_each_near_segment(centre.points[0], centre.points[0], band, |i| ids.push(i));
     }
     ids.sort_unstable();
     ids.dedup();
     let mut band_pts: Vec<(f64, u32)> = ids
         .into_iter()
-        .filter(|&i| !outlier[i as usize])
-        .map(|i| {
-            (
-                dot(sub(positions[i as usize], run.origin), run.direction),
-                i,
-            )
-        })
+        .filter(|&i| !ctx.outlier[i as usize])
+        .map(|i| (dot(sub(ctx.positions[i as usize], ctx.origin), ctx.direction), i))
         .filter(|&(t, _)| t >= t0 && t <= t1)
         .collect();
     band_pts.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
     if band_pts.len() < 2 * params.slab_points.min(20) {
-        return Err(format!(
-            "edge {k}: only {} points in its band",
-            band_pts.len()
-        ));
+        return Err(format!("edge {k}: only {} points in its band", band_pts.len()));
     }
     // Slabs of equal thickness, about `slab_points` points each.
     let density = band_pts.len() as f64 / (t1 - t0);
-    let thickness = (params.slab_points as f64 / density)
-        .max(0.5 * scale.spacing)
-        .min(t1 - t0);
+    let thickness = (params.slab_points as f64 / density).max(0.5 * scale.spacing).min(t1 - t0);
     let nslab = ((t1 - t0) / thickness).floor().max(1.0) as usize;
     let thickness = (t1 - t0) / nslab as f64;
-    let mut slabs = Vec::with_capacity(nslab);
-    let mut failed = 0usize;
-    let mut first_failure = None;
+    let mut pass = Pass { slabs: Vec::with_capacity(nslab), failed: 0, first_failure: None, residuals: Vec::new() };
     let mut start = 0usize;
     let mut profile: Vec<[f64; 2]> = Vec::new();
     let mut members: Vec<u32> = Vec::new();
     for s in 0..nslab {
         let (ta, tb) = (t0 + s as f64 * thickness, t0 + (s + 1) as f64 * thickness);
-        let end = start
-            + band_pts[start..].partition_point(|p| p.0 < tb || (s + 1 == nslab && p.0 <= tb));
+        let end = start + band_pts[start..].partition_point(|p| p.0 < tb || (s + 1 == nslab && p.0 <= tb));
         let slab = &band_pts[start..end];
         start = end;
         let tc = 0.5 * (ta + tb);
@@ -218,14 +358,15 @@ fn fit_run(
         profile.clear();
         members.clear();
         for &(_, i) in slab {
-            let v = sub(positions[i as usize], c);
+            let v = sub(ctx.positions[i as usize], c);
+            // Along-edge offsets are dropped: the profile is the slab seen along the edge.
             profile.push([dot(v, e1), dot(v, e2)]);
             members.push(i);
         }
-        let res = fit_profile_2d_with(&profile, [0.0, 0.0], fit, rng, scratch, out);
+        let res = fit_profile_2d_zone(&profile, [0.0, 0.0], zone, ctx.fit, rng, scratch, out);
         if let Ok(spec) = std::env::var("SHARPEDGE_DUMP") {
             if spec == format!("{k},{s}") {
-                let j = serde_json::json!({"profile": profile, "ok": res.is_ok(), "sides": out.sides, "corner_region": out.corner_region, "local": [[out.local[0].point, out.local[0].direction],[out.local[1].point, out.local[1].direction]], "pso": out.pso.point, "exact": out.exact.point, "scheme1": out.scheme1.point, "errors": [out.scheme1.error, out.pso.error, out.exact.error], "noise": out.noise, "c": out.c, "d": out.d, "e1": e1, "e2": e2, "c3": c});
+                let j = serde_json::json!({"profile": profile, "ok": res.is_ok(), "sides": out.sides, "corner_region": out.corner_region, "local": [[out.local[0].point, out.local[0].direction],[out.local[1].point, out.local[1].direction]], "pso": out.pso.point, "exact": out.exact.point, "scheme1": out.scheme1.point, "errors": [out.scheme1.error, out.pso.error, out.exact.error], "noise": out.noise, "c": out.c, "d": out.d, "e1": e1, "e2": e2, "c3": c, "zone": zone});
                 let _ = std::fs::write("/tmp/slab.json", j.to_string());
             }
         }
@@ -241,11 +382,10 @@ fn fit_run(
                 let abnormal_reach = out
                     .corner_region
                     .iter()
-                    .map(|&j| {
-                        ((profile[j][0] - pso[0]).powi(2) + (profile[j][1] - pso[1]).powi(2)).sqrt()
-                    })
-                    .fold(0.0, f64::max);
-                slabs.push(SlabFit {
+                    .map(|&j| ((profile[j][0] - pso[0]).powi(2) + (profile[j][1] - pso[1]).powi(2)).sqrt())
+                    .fold(zone, f64::max);
+                collect_residuals(&profile, out, &mut pass.residuals);
+                pass.slabs.push(SlabFit {
                     t: tc,
                     tangent,
                     corner: lift(pso),
@@ -259,55 +399,45 @@ fn fit_run(
                 });
             }
             Err(e) => {
-                failed += 1;
-                first_failure.get_or_insert_with(|| format!("edge {k} slab at t = {tc:.4}: {e}"));
+                pass.failed += 1;
+                pass.first_failure.get_or_insert_with(|| format!("edge {k} slab at t = {tc:.4}: {e}"));
             }
         }
     }
-    if slabs.len() < 2 {
-        return Err(
-            first_failure.unwrap_or_else(|| format!("edge {k}: fewer than two slabs fitted"))
-        );
+    if pass.slabs.len() < 2 {
+        return Err(pass.first_failure.unwrap_or_else(|| format!("edge {k}: fewer than two slabs fitted")));
     }
-    let rectified: Vec<[f64; 3]> = slabs.iter().map(|s| s.corner).collect();
-    let all: Vec<usize> = (0..rectified.len()).collect();
-    let line =
-        pca_line(&rectified, &all).ok_or_else(|| format!("edge {k}: rectified points coincide"))?;
-    let line = (
-        line.0,
-        if dot(line.1, run.direction) < 0.0 {
-            line.1.map(|x| -x)
-        } else {
-            line.1
-        },
-    );
-    let rms = (rectified
-        .iter()
-        .map(|p| point_line_distance(*p, line).powi(2))
-        .sum::<f64>()
-        / rectified.len() as f64)
-        .sqrt();
-    let mut angles: Vec<f64> = slabs
-        .iter()
-        .map(|s| {
-            dot(s.faces[0], s.faces[1])
-                .clamp(-1.0, 1.0)
-                .acos()
-                .to_degrees()
-        })
-        .collect();
-    let mid = angles.len() / 2;
-    let dihedral_deg = *angles.select_nth_unstable_by(mid, f64::total_cmp).1;
-    Ok(EdgeFit {
-        run: k,
-        straight: rms <= params.straight_tolerance * scale.spacing,
-        slabs,
-        line,
-        rms,
-        dihedral_deg,
-        failed_slabs: failed,
-        first_failure,
-    })
+    Ok(pass)
+}
+
+/// Appends (distance along the face from the exact corner, signed distance to the face's
+/// local line towards the other face) for every side and corner-region point of a fit.
+fn collect_residuals(profile: &[[f64; 2]], fit: &ProfileFit, out: &mut Vec<(f64, f64)>) {
+    let q = fit.exact.point;
+    let dirs = [fit.local[0].direction, fit.local[1].direction];
+    // Normal of each face line pointing to the other face's side.
+    let normals = [0, 1].map(|j| {
+        let d = dirs[j];
+        let n = [-d[1], d[0]];
+        let o = dirs[1 - j];
+        if n[0] * o[0] + n[1] * o[1] < 0.0 { [-n[0], -n[1]] } else { n }
+    });
+    let mut push = |i: usize, j: usize| {
+        let p = profile[i];
+        let l = &fit.local[j];
+        let s = (p[0] - q[0]) * dirs[j][0] + (p[1] - q[1]) * dirs[j][1];
+        let r = (p[0] - l.point[0]) * normals[j][0] + (p[1] - l.point[1]) * normals[j][1];
+        out.push((s, r));
+    };
+    for j in 0..2 {
+        for &i in &fit.sides[j] {
+            push(i, j);
+        }
+    }
+    for &i in &fit.corner_region {
+        let j = usize::from(fit.local[1].distance(&profile[i]) < fit.local[0].distance(&profile[i]));
+        push(i, j);
+    }
 }
 
 /// Distance from `p` to the line (point, unit direction).
@@ -346,20 +476,31 @@ struct Centreline {
 
 impl Centreline {
     fn new(run: &Run) -> Self {
-        let mut points = run.centreline.clone();
+        Self::through(&run.centreline, run.origin, run.direction)
+    }
+
+    /// Through `points` (ordered along the run), parametrised by the run's line.
+    fn through(points: &[[f64; 3]], origin: [f64; 3], direction: [f64; 3]) -> Self {
+        let mut points = points.to_vec();
         if points.is_empty() {
-            points.push(run.origin);
+            points.push(origin);
         }
-        let ts = points
-            .iter()
-            .map(|p| dot(sub(*p, run.origin), run.direction))
-            .collect();
-        Centreline {
-            points,
-            ts,
-            origin: run.origin,
-            direction: run.direction,
-        }
+        let ts = points.iter().map(|p| dot(sub(*p, origin), direction)).collect();
+        Centreline { points, ts, origin, direction }
+    }
+
+    /// A straight centre line along `line` from the run's t0 to t1, sampled every `step`.
+    fn straight(line: ([f64; 3], [f64; 3]), origin: [f64; 3], direction: [f64; 3], t0: f64, t1: f64, step: f64) -> Self {
+        let n = (((t1 - t0) / step).ceil() as usize).clamp(1, 100_000);
+        let c = dot(line.1, direction);
+        let at = |t: f64| {
+            // The point of `line` whose position along the run's line is t.
+            let s = if c.abs() > 1e-9 { (t - dot(sub(line.0, origin), direction)) / c } else { 0.0 };
+            add(line.0, line.1.map(|x| x * s))
+        };
+        let points: Vec<[f64; 3]> = (0..=n).map(|i| at(t0 + (t1 - t0) * i as f64 / n as f64)).collect();
+        let ts = points.iter().map(|p| dot(sub(*p, origin), direction)).collect();
+        Centreline { points, ts, origin, direction: line.1 }
     }
 
     /// Position (interpolated) and tangent (from the centre-line points within two windows)

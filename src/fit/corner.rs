@@ -104,6 +104,8 @@ pub struct CornerScratch {
     swarm: SwarmScratch<3>,
     frame: Option<Frame<3>>,
     cand_scale: f64,
+    /// The swarm's starting positions (candidates, plus the lines' meeting point if asked).
+    init: Vec<[f64; 3]>,
 }
 
 impl CornerScratch {
@@ -425,9 +427,17 @@ pub fn solve_corner_3d<R: Rng + ?Sized>(
         got: 0,
     })?;
     let mut hist = std::mem::take(&mut out.pso_history);
+    let mut init = std::mem::take(&mut s.init);
+    init.clear();
+    init.extend_from_slice(&s.cand);
+    if params.seed_with_intersection {
+        if let Some(q) = lines_meeting_point(&s.local) {
+            init.push(q);
+        }
+    }
     let p = pso(
         &s.obj,
-        &s.cand,
+        &init,
         &s.basis,
         s.cand_scale,
         &params.pso,
@@ -436,6 +446,7 @@ pub fn solve_corner_3d<R: Rng + ?Sized>(
         &mut s.swarm,
         &mut hist,
     );
+    s.init = init;
     let ex = exact_3d(&s.obj, s.cand_scale, &params.exact)?;
     let to_input = |r: Search<3>| Search {
         point: frame.to_input(&r.point),
@@ -469,4 +480,38 @@ pub fn solve_corner_3d<R: Rng + ?Sized>(
         out.rectified.push(frame.to_input(&foot));
     }
     Ok(())
+}
+
+/// The point with the least sum of squared distances to the lines (point, unit direction);
+/// `None` when they are (nearly) parallel. Normal equations of Σ‖(I − d dᵀ)(q − p)‖².
+fn lines_meeting_point(lines: &[Line3]) -> Option<[f64; 3]> {
+    let mut a = [[0.0f64; 3]; 3];
+    let mut b = [0.0f64; 3];
+    for l in lines {
+        let d = l.direction;
+        for r in 0..3 {
+            for c in 0..3 {
+                let m = f64::from(u8::from(r == c)) - d[r] * d[c];
+                a[r][c] += m;
+                b[r] += m * l.point[c];
+            }
+        }
+    }
+    let det = a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1])
+        - a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0])
+        + a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0]);
+    // The matrix is a sum of projectors: its determinant vanishes for parallel lines.
+    if det.abs() < 1e-9 * (lines.len() as f64).powi(3) {
+        return None;
+    }
+    let solve = |col: usize| {
+        let mut m = a;
+        for r in 0..3 {
+            m[r][col] = b[r];
+        }
+        m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+            + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
+    };
+    let q = [solve(0) / det, solve(1) / det, solve(2) / det];
+    q.iter().all(|x| x.is_finite()).then_some(q)
 }

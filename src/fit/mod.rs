@@ -143,6 +143,22 @@ pub fn fit_profile_2d_with<R: Rng + ?Sized>(
     solve_profile_2d(params, rng, scratch, out)
 }
 
+/// [`fit_profile_2d_with`] with a known abnormal zone of radius `zone` around the approximate
+/// corner (see [`profile::prepare_profile_2d_zone`]).
+#[allow(clippy::too_many_arguments)]
+pub fn fit_profile_2d_zone<R: Rng + ?Sized>(
+    points: &[[f64; 2]],
+    approx_corner: [f64; 2],
+    zone: f64,
+    params: &FitParams,
+    rng: &mut R,
+    scratch: &mut ProfileScratch,
+    out: &mut ProfileFit,
+) -> Result<()> {
+    profile::prepare_profile_2d_zone(points, approx_corner, zone, params, scratch, out)?;
+    solve_profile_2d(params, rng, scratch, out)
+}
+
 /// Fits the common point of k ≥ 2 edges meeting at a vertex (see the module documentation).
 pub fn fit_corner_3d<R: Rng + ?Sized>(
     sides: &[&[[f64; 3]]],

@@ -45,6 +45,12 @@ pub struct FitParams {
     /// Count the corner-region points in the error (each against its nearer local line), as
     /// the paper's "every discrete data point" does; `false` scores the side points only.
     pub include_corner_region: bool,
+    /// 3D fits: also start one particle at the least-squares meeting point of the local side
+    /// lines (the piecewise estimate). A scanned vertex lies beyond its data — the edges'
+    /// rectified points stop short of it — and a swarm started on data points alone only
+    /// contracts within them. Scheme 1 still chooses among data points only. Off in the
+    /// paper (and the experiment); on in the pipeline.
+    pub seed_with_intersection: bool,
     /// Fewest particles / Scheme 1 candidates; a smaller corner region is grown by the data
     /// points nearest to its centre. The paper has one particle per corner-region point; with
     /// a clean propagation that region can be just C, D and a point or two, and a swarm that
@@ -74,6 +80,7 @@ impl Default for FitParams {
             min_side_points: 3,
             min_angle_deg: 2.0,
             include_corner_region: true,
+            seed_with_intersection: false,
             min_particles: 20,
             max_particles: None,
             trim: 4.0,

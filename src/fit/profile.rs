@@ -143,6 +143,21 @@ pub fn prepare_profile_2d(
     scratch: &mut ProfileScratch,
     out: &mut ProfileFit,
 ) -> Result<()> {
+    prepare_profile_2d_zone(points, approx_corner, 0.0, params, scratch, out)
+}
+
+/// [`prepare_profile_2d`] with a known abnormal zone: points closer than `zone` (input units)
+/// to the approximate corner are never side points, whatever the propagation says. The 3D
+/// pipeline measures the zone once per edge from the residuals of all its slabs, which sees
+/// where a tangent-continuous fillet leaves the faces far better than one slab can.
+pub fn prepare_profile_2d_zone(
+    points: &[[f64; 2]],
+    approx_corner: [f64; 2],
+    zone: f64,
+    params: &FitParams,
+    scratch: &mut ProfileScratch,
+    out: &mut ProfileFit,
+) -> Result<()> {
     let s = scratch;
     s.frame = None;
     let n = points.len();
@@ -346,7 +361,18 @@ pub fn prepare_profile_2d(
     )
     .min(m - j + j / 2);
     // Side 1 = poly[..s1_end], side 2 = poly[s2_start..].
-    let (s1_end, s2_start) = (a.min(m - b), a.max(m - b));
+    let (mut s1_end, mut s2_start) = (a.min(m - b), a.max(m - b));
+    if zone > 0.0 {
+        // Pull each side back to its last point outside the zone (far end first, so the side
+        // is a prefix of the polyline read from its end).
+        let z2 = (zone / frame.unit).powi(2);
+        while s1_end > 0 && norm2(&loc[s.poly[s1_end - 1]]) < z2 {
+            s1_end -= 1;
+        }
+        while s2_start < m && norm2(&loc[s.poly[s2_start]]) < z2 {
+            s2_start += 1;
+        }
+    }
     for (k, got) in [(0, s1_end), (1, m - s2_start)] {
         if got < min_side {
             return Err(Error::SideTooSmall {
