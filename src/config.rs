@@ -315,15 +315,19 @@ fn line_of(text: &str, offset: usize) -> usize {
 
 /// The fit parameters a run uses unless the file says otherwise: the paper's, except that
 /// the constrained corner is scored on the side points only, and a vertex's swarm also starts
-/// at its edges' piecewise meeting point (a scanned vertex lies beyond its data). The paper counts every point,
+/// at its edges' piecewise meeting point (a scanned vertex lies beyond its data) and gets 20
+/// iterations instead of 10 (with 10, `sharpedge experiment --dim 3` finds the swarm within
+/// 1 % of the exact optimum in only ~91 % of trials; with 20 in 99.7 %). The paper counts every point,
 /// but on a scan the abnormal-zone points are exactly the ones the corner must not follow
 /// (they pull it into the rounding); `sharpedge experiment` keeps the paper's choice.
 pub fn pipeline_fit_default() -> FitParams {
-    FitParams {
+    let mut fit = FitParams {
         include_corner_region: false,
         seed_with_intersection: true,
         ..FitParams::default()
-    }
+    };
+    fit.pso.iterations_3d = 20;
+    fit
 }
 
 /// The line of `name` (e.g. `pso.w`) in the `[fit]` part of a pipeline file: under
@@ -697,6 +701,9 @@ impl Checker<'_> {
         // Keys the file does not set take the pipeline's defaults, not the library's.
         if line_of_fit_key(self.text, "include_corner_region") == 0 {
             fit.include_corner_region = pipeline_fit_default().include_corner_region;
+        }
+        if line_of_fit_key(self.text, "pso.iterations_3d") == 0 {
+            fit.pso.iterations_3d = pipeline_fit_default().pso.iterations_3d;
         }
         if line_of_fit_key(self.text, "seed_with_intersection") == 0 {
             fit.seed_with_intersection = pipeline_fit_default().seed_with_intersection;

@@ -23,8 +23,10 @@ use crate::segment::{Segments, add, dot, nearest_point_to_lines, norm, sub};
 /// Settings of the corner stage (validated by `config`).
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct CornerParams {
-    /// Rectified edge points farther than this many neighbourhood radii from the vertex are
-    /// not used (curved edges are only locally straight).
+    /// On a curved edge, rectified edge points farther than this many neighbourhood radii
+    /// from the vertex are not used (a curve is only locally straight). A straight edge gives
+    /// all its rectified points: its direction is then known far better (on a box at 500k
+    /// points, mean vertex error 0.017–0.027 h against 0.040–0.049 h with 25 radii).
     pub reach: f64,
 }
 
@@ -93,7 +95,7 @@ fn fit_vertex(
             .slabs
             .iter()
             .map(|s| s.corner)
-            .filter(|p| norm(sub(*p, approx)) <= reach)
+            .filter(|p| edge.straight || norm(sub(*p, approx)) <= reach)
             .collect();
         if pts.len() >= 3 {
             sides.push(pts);
