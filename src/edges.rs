@@ -174,10 +174,28 @@ fn fit_run(
     // The usable stretch of the run: its extent, pulled back from vertices.
     let mut t0 = run.t_range[0];
     let mut t1 = run.t_range[1];
+    let band = params.band * r;
     for (e, t) in [(0, &mut t0), (1, &mut t1)] {
         if let Some(v) = run.vertices[e] {
-            let tv = dot(sub(segments.vertices[v].position, run.origin), run.direction);
-            let margin = params.vertex_margin * r;
+            let vertex = &segments.vertices[v];
+            let tv = dot(sub(vertex.position, run.origin), run.direction);
+            // Our direction away from the vertex, and the other edges' directions away from it.
+            let ours = if e == 0 { run.direction } else { run.direction.map(|x| -x) };
+            // Where another edge leaves the vertex at an angle θ < 90° to ours, the face between
+            // them is only L·tan θ wide at distance L: the band must not reach across it.
+            let mut margin = params.vertex_margin * r;
+            for &(j, ej) in &vertex.ends {
+                if j == k {
+                    continue;
+                }
+                let o = &segments.runs[j];
+                let theirs = if ej == 0 { o.direction } else { o.direction.map(|x| -x) };
+                let c = dot(ours, theirs).clamp(-1.0, 1.0);
+                if c > 1e-6 {
+                    let tan = (1.0 - c * c).sqrt() / c;
+                    margin = margin.max(band / tan.max(1e-3) + 0.5 * r);
+                }
+            }
             *t = if e == 0 { tv + margin } else { tv - margin };
         }
     }
@@ -214,6 +232,27 @@ fn fit_run(
         Ok(p) if p.slabs.len() >= 2 => p,
         _ => first,
     };
+    let mut pass = pass;
+    let (line, _, straight) = edge_line(&pass.slabs, run.direction, scale, params);
+    if straight {
+        // A slab far off the edge's line saw something else (a neighbouring face, a gap):
+        // it must not feed the vertex fits or the rectification.
+        let d: Vec<f64> = pass.slabs.iter().map(|s| point_line_distance(s.corner, line)).collect();
+        let mut sorted = d.clone();
+        let mid = sorted.len() / 2;
+        let cut = (4.0 * 1.4826 * *sorted.select_nth_unstable_by(mid, f64::total_cmp).1).max(1e-12);
+        let before = pass.slabs.len();
+        let mut i = 0;
+        pass.slabs.retain(|_| {
+            i += 1;
+            d[i - 1] <= cut
+        });
+        let dropped = before - pass.slabs.len();
+        if dropped > 0 {
+            pass.failed += dropped;
+            pass.first_failure.get_or_insert_with(|| format!("edge {k}: {dropped} slab corner(s) off the edge's line left out"));
+        }
+    }
     let (line, rms, straight) = edge_line(&pass.slabs, run.direction, scale, params);
     let mut angles: Vec<f64> = pass
         .slabs
@@ -365,9 +404,16 @@ fn slab_pass(
         }
         let res = fit_profile_2d_zone(&profile, [0.0, 0.0], zone, ctx.fit, rng, scratch, out);
         if let Ok(spec) = std::env::var("SHARPEDGE_DUMP") {
-            if spec == format!("{k},{s}") {
+            if spec == format!("{k},{s}") || (spec == format!("{k},*") && zone > 0.0) {
                 let j = serde_json::json!({"profile": profile, "ok": res.is_ok(), "sides": out.sides, "corner_region": out.corner_region, "local": [[out.local[0].point, out.local[0].direction],[out.local[1].point, out.local[1].direction]], "pso": out.pso.point, "exact": out.exact.point, "scheme1": out.scheme1.point, "errors": [out.scheme1.error, out.pso.error, out.exact.error], "noise": out.noise, "c": out.c, "d": out.d, "e1": e1, "e2": e2, "c3": c, "zone": zone});
-                let _ = std::fs::write("/tmp/slab.json", j.to_string());
+                if spec.ends_with('*') {
+                    use std::io::Write;
+                    if let Ok(mut f) = std::fs::OpenOptions::new().create(true).append(true).open("/tmp/slabs.jsonl") {
+                        let _ = writeln!(f, "{j}");
+                    }
+                } else {
+                    let _ = std::fs::write("/tmp/slab.json", j.to_string());
+                }
             }
         }
         match res {

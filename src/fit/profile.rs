@@ -91,6 +91,8 @@ impl ProfileFit {
 /// Work buffers for the 2D profile fit; keep one per thread.
 #[derive(Clone, Debug, Default)]
 pub struct ProfileScratch {
+    /// The swarm's starting positions (candidates, plus the lines' meeting point if asked).
+    init: Vec<[f64; 2]>,
     loc: Vec<[f64; 2]>,
     r2: Vec<f64>,
     far: Vec<usize>,
@@ -499,9 +501,20 @@ pub fn solve_profile_2d<R: Rng + ?Sized>(
         got: 0,
     })?;
     let mut hist = std::mem::take(&mut out.pso_history);
+    let mut init = std::mem::take(&mut s.init);
+    init.clear();
+    init.extend_from_slice(&s.cand);
+    if params.seed_with_intersection {
+        // On a narrow V the error is nearly flat along the bisector: a swarm started only on
+        // corner-region points (inside the V) stops inside it. The local fits' intersection
+        // centres it on the optimum region.
+        if let Some(q) = intersection(&out.local[0], &out.local[1]) {
+            init.push(frame.to_local(&q));
+        }
+    }
     let p = pso(
         &s.obj,
-        &s.cand,
+        &init,
         &s.basis,
         s.cand_scale,
         &params.pso,
@@ -510,6 +523,7 @@ pub fn solve_profile_2d<R: Rng + ?Sized>(
         &mut s.swarm,
         &mut hist,
     );
+    s.init = init;
     let ex = exact_2d(&s.obj, &mut s.med)?;
     let to_input = |r: Search<2>| Search {
         point: frame.to_input(&r.point),
@@ -544,4 +558,17 @@ pub fn solve_profile_2d<R: Rng + ?Sized>(
         out.rectified.push(frame.to_input(&foot));
     }
     Ok(())
+}
+
+/// Intersection of two 2D lines; `None` when (nearly) parallel.
+fn intersection(a: &Line2, b: &Line2) -> Option<[f64; 2]> {
+    let (d, e) = (a.direction, b.direction);
+    let det = d[0] * (-e[1]) - (-e[0]) * d[1];
+    if det.abs() < 1e-12 {
+        return None;
+    }
+    let w = [b.point[0] - a.point[0], b.point[1] - a.point[1]];
+    let t = (w[0] * (-e[1]) - (-e[0]) * w[1]) / det;
+    let q = [a.point[0] + t * d[0], a.point[1] + t * d[1]];
+    q.iter().all(|x| x.is_finite()).then_some(q)
 }
