@@ -94,18 +94,31 @@ pub struct EdgeFit {
     pub first_failure: Option<String>,
 }
 
+/// The scanned surface as the fitting stages see it: positions, the outlier mask of the
+/// features stage, the neighbour grid and the measured scale.
+#[derive(Clone, Copy)]
+pub struct Surface<'a> {
+    pub positions: &'a [[f64; 3]],
+    pub outlier: &'a [bool],
+    pub grid: &'a Grid,
+    pub scale: &'a Scale,
+}
+
 /// Fits every run's edge in parallel. Each run gets its own RNG from (seed, run id), so the
 /// result does not depend on the thread count.
 pub fn fit_edges(
-    positions: &[[f64; 3]],
-    outlier: &[bool],
-    grid: &Grid,
+    surface: &Surface,
     segments: &Segments,
-    scale: &Scale,
     params: &EdgeParams,
     fit: &FitParams,
     seed: u64,
 ) -> Vec<Result<EdgeFit, String>> {
+    let Surface {
+        positions,
+        outlier,
+        grid,
+        scale,
+    } = *surface;
     let mut fit = fit.clone();
     // The profile fit estimates the noise itself unless told; the cloud's measured sigma is a
     // better estimate than one slab's.
@@ -180,7 +193,11 @@ fn fit_run(
             let vertex = &segments.vertices[v];
             let tv = dot(sub(vertex.position, run.origin), run.direction);
             // Our direction away from the vertex, and the other edges' directions away from it.
-            let ours = if e == 0 { run.direction } else { run.direction.map(|x| -x) };
+            let ours = if e == 0 {
+                run.direction
+            } else {
+                run.direction.map(|x| -x)
+            };
             // Where another edge leaves the vertex at an angle θ < 90° to ours, the face between
             // them is only L·tan θ wide at distance L: the band must not reach across it.
             let mut margin = params.vertex_margin * r;
@@ -189,7 +206,11 @@ fn fit_run(
                     continue;
                 }
                 let o = &segments.runs[j];
-                let theirs = if ej == 0 { o.direction } else { o.direction.map(|x| -x) };
+                let theirs = if ej == 0 {
+                    o.direction
+                } else {
+                    o.direction.map(|x| -x)
+                };
                 let c = dot(ours, theirs).clamp(-1.0, 1.0);
                 if c > 1e-6 {
                     let tan = (1.0 - c * c).sqrt() / c;
@@ -200,7 +221,10 @@ fn fit_run(
         }
     }
     if t1 - t0 < r {
-        return Err(format!("edge {k}: too short between its vertices ({:.3})", t1 - t0));
+        return Err(format!(
+            "edge {k}: too short between its vertices ({:.3})",
+            t1 - t0
+        ));
     }
     let ctx = RunCtx {
         positions,
@@ -225,7 +249,11 @@ fn fit_run(
     let centre = if straight {
         Centreline::straight(line, run.origin, run.direction, t0, t1, r)
     } else {
-        Centreline::through(&first.slabs.iter().map(|s| s.corner).collect::<Vec<_>>(), run.origin, run.direction)
+        Centreline::through(
+            &first.slabs.iter().map(|s| s.corner).collect::<Vec<_>>(),
+            run.origin,
+            run.direction,
+        )
     };
     let second = slab_pass(&ctx, &centre, zone, rng, scratch, out);
     let pass = match second {
@@ -237,7 +265,11 @@ fn fit_run(
     if straight {
         // A slab far off the edge's line saw something else (a neighbouring face, a gap):
         // it must not feed the vertex fits or the rectification.
-        let d: Vec<f64> = pass.slabs.iter().map(|s| point_line_distance(s.corner, line)).collect();
+        let d: Vec<f64> = pass
+            .slabs
+            .iter()
+            .map(|s| point_line_distance(s.corner, line))
+            .collect();
         let mut sorted = d.clone();
         let mid = sorted.len() / 2;
         let cut = (4.0 * 1.4826 * *sorted.select_nth_unstable_by(mid, f64::total_cmp).1).max(1e-12);
@@ -250,14 +282,21 @@ fn fit_run(
         let dropped = before - pass.slabs.len();
         if dropped > 0 {
             pass.failed += dropped;
-            pass.first_failure.get_or_insert_with(|| format!("edge {k}: {dropped} slab corner(s) off the edge's line left out"));
+            pass.first_failure.get_or_insert_with(|| {
+                format!("edge {k}: {dropped} slab corner(s) off the edge's line left out")
+            });
         }
     }
     let (line, rms, straight) = edge_line(&pass.slabs, run.direction, scale, params);
     let mut angles: Vec<f64> = pass
         .slabs
         .iter()
-        .map(|s| dot(s.faces[0], s.faces[1]).clamp(-1.0, 1.0).acos().to_degrees())
+        .map(|s| {
+            dot(s.faces[0], s.faces[1])
+                .clamp(-1.0, 1.0)
+                .acos()
+                .to_degrees()
+        })
         .collect();
     let mid = angles.len() / 2;
     let dihedral_deg = *angles.select_nth_unstable_by(mid, f64::total_cmp).1;
@@ -276,12 +315,30 @@ fn fit_run(
 /// The best line through the slabs' rectified edge points (oriented like `towards`), their
 /// RMS distance to it, and whether that is small enough to call the edge straight. Slab
 /// corners farther than 4 robust sigmas from a first line are left out of the final one.
-fn edge_line(slabs: &[SlabFit], towards: [f64; 3], scale: &Scale, params: &EdgeParams) -> (([f64; 3], [f64; 3]), f64, bool) {
+fn edge_line(
+    slabs: &[SlabFit],
+    towards: [f64; 3],
+    scale: &Scale,
+    params: &EdgeParams,
+) -> (([f64; 3], [f64; 3]), f64, bool) {
     let pts: Vec<[f64; 3]> = slabs.iter().map(|s| s.corner).collect();
     let all: Vec<usize> = (0..pts.len()).collect();
-    let orient = |l: ([f64; 3], [f64; 3])| (l.0, if dot(l.1, towards) < 0.0 { l.1.map(|x| -x) } else { l.1 });
+    let orient = |l: ([f64; 3], [f64; 3])| {
+        (
+            l.0,
+            if dot(l.1, towards) < 0.0 {
+                l.1.map(|x| -x)
+            } else {
+                l.1
+            },
+        )
+    };
     let Some(first) = pca_line(&pts, &all).map(orient) else {
-        return ((pts.first().copied().unwrap_or([0.0; 3]), towards), 0.0, true);
+        return (
+            (pts.first().copied().unwrap_or([0.0; 3]), towards),
+            0.0,
+            true,
+        );
     };
     let mut d: Vec<f64> = pts.iter().map(|p| point_line_distance(*p, first)).collect();
     let mut sorted = d.clone();
@@ -294,7 +351,10 @@ fn edge_line(slabs: &[SlabFit], towards: [f64; 3], scale: &Scale, params: &EdgeP
     } else {
         first
     };
-    d = keep.iter().map(|&i| point_line_distance(pts[i], line)).collect();
+    d = keep
+        .iter()
+        .map(|&i| point_line_distance(pts[i], line))
+        .collect();
     let rms = (d.iter().map(|x| x * x).sum::<f64>() / d.len().max(1) as f64).sqrt();
     (line, rms, rms <= params.straight_tolerance * scale.spacing)
 }
@@ -322,7 +382,11 @@ fn abnormal_zone(res: &[(f64, f64)], scale: &Scale) -> f64 {
         cnt[b] += 1;
     }
     // The faces' level and spread: the outer half of the band.
-    let outer: Vec<f64> = res.iter().filter(|x| x.0 > 0.5 * s_max).map(|x| x.1).collect();
+    let outer: Vec<f64> = res
+        .iter()
+        .filter(|x| x.0 > 0.5 * s_max)
+        .map(|x| x.1)
+        .collect();
     if outer.len() < 20 {
         return 0.0;
     }
@@ -360,35 +424,53 @@ fn slab_pass(
     // Band points: within `band` of the centre line, inside the usable stretch.
     let mut ids: Vec<u32> = Vec::new();
     for w in centre.points.windows(2) {
-        ctx.grid.for_each_near_segment(w[0], w[1], band, |i| ids.push(i));
+        ctx.grid
+            .for_each_near_segment(w[0], w[1], band, |i| ids.push(i));
     }
     if centre.points.len() == 1 {
-        ctx.grid.for_each_near_segment(centre.points[0], centre.points[0], band, |i| ids.push(i));
+        ctx.grid
+            .for_each_near_segment(centre.points[0], centre.points[0], band, |i| ids.push(i));
     }
     ids.sort_unstable();
     ids.dedup();
     let mut band_pts: Vec<(f64, u32)> = ids
         .into_iter()
         .filter(|&i| !ctx.outlier[i as usize])
-        .map(|i| (dot(sub(ctx.positions[i as usize], ctx.origin), ctx.direction), i))
+        .map(|i| {
+            (
+                dot(sub(ctx.positions[i as usize], ctx.origin), ctx.direction),
+                i,
+            )
+        })
         .filter(|&(t, _)| t >= t0 && t <= t1)
         .collect();
     band_pts.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
     if band_pts.len() < 2 * params.slab_points.min(20) {
-        return Err(format!("edge {k}: only {} points in its band", band_pts.len()));
+        return Err(format!(
+            "edge {k}: only {} points in its band",
+            band_pts.len()
+        ));
     }
     // Slabs of equal thickness, about `slab_points` points each.
     let density = band_pts.len() as f64 / (t1 - t0);
-    let thickness = (params.slab_points as f64 / density).max(0.5 * scale.spacing).min(t1 - t0);
+    let thickness = (params.slab_points as f64 / density)
+        .max(0.5 * scale.spacing)
+        .min(t1 - t0);
     let nslab = ((t1 - t0) / thickness).floor().max(1.0) as usize;
     let thickness = (t1 - t0) / nslab as f64;
-    let mut pass = Pass { slabs: Vec::with_capacity(nslab), failed: 0, first_failure: None, residuals: Vec::new() };
+    let mut pass = Pass {
+        slabs: Vec::with_capacity(nslab),
+        failed: 0,
+        first_failure: None,
+        residuals: Vec::new(),
+    };
     let mut start = 0usize;
     let mut profile: Vec<[f64; 2]> = Vec::new();
     let mut members: Vec<u32> = Vec::new();
     for s in 0..nslab {
         let (ta, tb) = (t0 + s as f64 * thickness, t0 + (s + 1) as f64 * thickness);
-        let end = start + band_pts[start..].partition_point(|p| p.0 < tb || (s + 1 == nslab && p.0 <= tb));
+        let end = start
+            + band_pts[start..].partition_point(|p| p.0 < tb || (s + 1 == nslab && p.0 <= tb));
         let slab = &band_pts[start..end];
         start = end;
         let tc = 0.5 * (ta + tb);
@@ -408,7 +490,11 @@ fn slab_pass(
                 let j = serde_json::json!({"profile": profile, "ok": res.is_ok(), "sides": out.sides, "corner_region": out.corner_region, "local": [[out.local[0].point, out.local[0].direction],[out.local[1].point, out.local[1].direction]], "pso": out.pso.point, "exact": out.exact.point, "scheme1": out.scheme1.point, "errors": [out.scheme1.error, out.pso.error, out.exact.error], "noise": out.noise, "c": out.c, "d": out.d, "e1": e1, "e2": e2, "c3": c, "zone": zone});
                 if spec.ends_with('*') {
                     use std::io::Write;
-                    if let Ok(mut f) = std::fs::OpenOptions::new().create(true).append(true).open("/tmp/slabs.jsonl") {
+                    if let Ok(mut f) = std::fs::OpenOptions::new()
+                        .create(true)
+                        .append(true)
+                        .open("/tmp/slabs.jsonl")
+                    {
                         let _ = writeln!(f, "{j}");
                     }
                 } else {
@@ -428,7 +514,9 @@ fn slab_pass(
                 let abnormal_reach = out
                     .corner_region
                     .iter()
-                    .map(|&j| ((profile[j][0] - pso[0]).powi(2) + (profile[j][1] - pso[1]).powi(2)).sqrt())
+                    .map(|&j| {
+                        ((profile[j][0] - pso[0]).powi(2) + (profile[j][1] - pso[1]).powi(2)).sqrt()
+                    })
                     .fold(zone, f64::max);
                 collect_residuals(&profile, out, &mut pass.residuals);
                 pass.slabs.push(SlabFit {
@@ -446,12 +534,15 @@ fn slab_pass(
             }
             Err(e) => {
                 pass.failed += 1;
-                pass.first_failure.get_or_insert_with(|| format!("edge {k} slab at t = {tc:.4}: {e}"));
+                pass.first_failure
+                    .get_or_insert_with(|| format!("edge {k} slab at t = {tc:.4}: {e}"));
             }
         }
     }
     if pass.slabs.len() < 2 {
-        return Err(pass.first_failure.unwrap_or_else(|| format!("edge {k}: fewer than two slabs fitted")));
+        return Err(pass
+            .first_failure
+            .unwrap_or_else(|| format!("edge {k}: fewer than two slabs fitted")));
     }
     Ok(pass)
 }
@@ -466,7 +557,11 @@ fn collect_residuals(profile: &[[f64; 2]], fit: &ProfileFit, out: &mut Vec<(f64,
         let d = dirs[j];
         let n = [-d[1], d[0]];
         let o = dirs[1 - j];
-        if n[0] * o[0] + n[1] * o[1] < 0.0 { [-n[0], -n[1]] } else { n }
+        if n[0] * o[0] + n[1] * o[1] < 0.0 {
+            [-n[0], -n[1]]
+        } else {
+            n
+        }
     });
     let mut push = |i: usize, j: usize| {
         let p = profile[i];
@@ -481,7 +576,8 @@ fn collect_residuals(profile: &[[f64; 2]], fit: &ProfileFit, out: &mut Vec<(f64,
         }
     }
     for &i in &fit.corner_region {
-        let j = usize::from(fit.local[1].distance(&profile[i]) < fit.local[0].distance(&profile[i]));
+        let j =
+            usize::from(fit.local[1].distance(&profile[i]) < fit.local[0].distance(&profile[i]));
         push(i, j);
     }
 }
@@ -531,22 +627,51 @@ impl Centreline {
         if points.is_empty() {
             points.push(origin);
         }
-        let ts = points.iter().map(|p| dot(sub(*p, origin), direction)).collect();
-        Centreline { points, ts, origin, direction }
+        let ts = points
+            .iter()
+            .map(|p| dot(sub(*p, origin), direction))
+            .collect();
+        Centreline {
+            points,
+            ts,
+            origin,
+            direction,
+        }
     }
 
     /// A straight centre line along `line` from the run's t0 to t1, sampled every `step`.
-    fn straight(line: ([f64; 3], [f64; 3]), origin: [f64; 3], direction: [f64; 3], t0: f64, t1: f64, step: f64) -> Self {
+    fn straight(
+        line: ([f64; 3], [f64; 3]),
+        origin: [f64; 3],
+        direction: [f64; 3],
+        t0: f64,
+        t1: f64,
+        step: f64,
+    ) -> Self {
         let n = (((t1 - t0) / step).ceil() as usize).clamp(1, 100_000);
         let c = dot(line.1, direction);
         let at = |t: f64| {
             // The point of `line` whose position along the run's line is t.
-            let s = if c.abs() > 1e-9 { (t - dot(sub(line.0, origin), direction)) / c } else { 0.0 };
+            let s = if c.abs() > 1e-9 {
+                (t - dot(sub(line.0, origin), direction)) / c
+            } else {
+                0.0
+            };
             add(line.0, line.1.map(|x| x * s))
         };
-        let points: Vec<[f64; 3]> = (0..=n).map(|i| at(t0 + (t1 - t0) * i as f64 / n as f64)).collect();
-        let ts = points.iter().map(|p| dot(sub(*p, origin), direction)).collect();
-        Centreline { points, ts, origin, direction: line.1 }
+        let points: Vec<[f64; 3]> = (0..=n)
+            .map(|i| at(t0 + (t1 - t0) * i as f64 / n as f64))
+            .collect();
+        let ts = points
+            .iter()
+            .map(|p| dot(sub(*p, origin), direction))
+            .collect();
+        Centreline {
+            points,
+            ts,
+            origin,
+            direction: line.1,
+        }
     }
 
     /// Position (interpolated) and tangent (from the centre-line points within two windows)

@@ -163,12 +163,15 @@ pub fn process(cloud: Cloud, settings: &Settings, clock: &mut impl LapClock) -> 
     clock.lap("features");
     let segments = segment::segment(&cloud.positions, &features, &scale, &settings.segment);
     clock.lap("segment");
+    let surface = edges::Surface {
+        positions: &cloud.positions,
+        outlier: &features.outlier,
+        grid: &grid,
+        scale: &scale,
+    };
     let fits = edges::fit_edges(
-        &cloud.positions,
-        &features.outlier,
-        &grid,
+        &surface,
         &segments,
-        &scale,
         &settings.edges,
         &settings.fit,
         settings.seed,

@@ -345,6 +345,8 @@ fn unknown_extension_and_missing_file() {
     let e = read_mesh(Path::new("/nonexistent/m.off")).unwrap_err();
     // The OS reason is the error's source: `main` prints the chain once.
     assert_eq!(e.to_string(), "/nonexistent/m.off: cannot open");
-    let reason = std::error::Error::source(&e).expect("the OS error as source").to_string();
+    let reason = std::error::Error::source(&e)
+        .expect("the OS error as source")
+        .to_string();
     assert!(reason.contains("No such file"), "{reason}");
 }

@@ -244,7 +244,10 @@ fn mesh_file_errors_pass_through() {
     };
     let e = generate(&p).unwrap_err();
     assert_eq!(e.to_string(), "/nonexistent/part.off: cannot open");
-    assert!(std::error::Error::source(&e).is_some(), "the OS reason is chained");
+    assert!(
+        std::error::Error::source(&e).is_some(),
+        "the OS reason is chained"
+    );
 }
 
 /// The grid-accelerated queries return exactly the brute-force minimum.
