@@ -110,6 +110,7 @@ struct RawCorners {
 struct RawRectify {
     enabled: Opt<bool>,
     max_move: Opt<f64>,
+    zone_margin: Opt<f64>,
 }
 
 #[derive(Debug, Default, Deserialize)]
@@ -687,6 +688,7 @@ impl Checker<'_> {
                 100.0,
                 true,
             )?,
+            zone_margin: self.number(&raw.rectify.zone_margin, "rectify.zone_margin", d.rectify.zone_margin, 0.0, 100.0, false)?,
         };
         raw.fit.validate().map_err(|err| match &err {
             Error::InvalidParameter { name, .. } => Error::Config {

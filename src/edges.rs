@@ -89,6 +89,9 @@ pub struct EdgeFit {
     pub straight: bool,
     /// Interior angle between the two faces, in degrees (median over slabs).
     pub dihedral_deg: f64,
+    /// Half-width of the abnormal zone measured from the pooled residuals (distance from the
+    /// corner along the faces where the scan leaves them); 0 when none was measured.
+    pub zone: f64,
     /// Slab fits that failed (count) with the first reason.
     pub failed_slabs: usize,
     pub first_failure: Option<String>,
@@ -149,7 +152,7 @@ struct Pass {
     /// (distance from the slab's corner along the face, signed distance to the face's local
     /// line towards the other face) of every side and corner-region point, for the zone
     /// estimate.
-    residuals: Vec<(f64, f64)>,
+    residuals: Vec<(f64, f64, bool)>,
 }
 
 /// The per-run inputs that stay fixed across passes.
@@ -241,26 +244,39 @@ fn fit_run(
     };
     // Pass 1 along the run's band axis: where the sharp edge is, roughly, and how wide its
     // abnormal zone is.
-    let first = slab_pass(&ctx, &Centreline::new(run), 0.0, rng, scratch, out)?;
-    let zone = abnormal_zone(&first.residuals, scale);
-    // Pass 2 along the line (or curve) through pass 1's rectified edge points: slabs exactly
-    // across the edge, the approximate corner on it, and the zone kept out of the side fits.
-    let (line, _, straight) = edge_line(&first.slabs, run.direction, scale, params);
-    let centre = if straight {
-        Centreline::straight(line, run.origin, run.direction, t0, t1, r)
-    } else {
-        Centreline::through(
-            &first.slabs.iter().map(|s| s.corner).collect::<Vec<_>>(),
-            run.origin,
-            run.direction,
-        )
-    };
-    let second = slab_pass(&ctx, &centre, zone, rng, scratch, out);
-    let pass = match second {
-        Ok(p) if p.slabs.len() >= 2 => p,
-        _ => first,
-    };
-    let mut pass = pass;
+    let band = params.band * r;
+    let first = slab_pass(&ctx, &Centreline::new(run), 0.0, band, rng, scratch, out)?;
+    // Later passes go along the line (or curve) through the previous pass's rectified edge
+    // points — slabs exactly across the edge, the approximate corner on it — and keep the
+    // abnormal zone measured from the previous pass's pooled residuals out of the side fits,
+    // with a band wide enough that the faces reach well beyond the zone (a sharp wedge's
+    // fillet is several spacings wide). A third pass runs only when the zone moved.
+    let mut pass = first;
+    let mut zone_used = 0.0;
+    let mut zone_raw = 0.0;
+    for _ in 0..2 {
+        let raw = abnormal_zone(&pass.residuals, scale, 2.0 * band.max(2.0 * zone_used + 2.0 * r));
+        // Fitting keeps half a bin more out: a side point must be clearly on its face.
+        let zone = if raw > 0.0 { raw + 0.25 * scale.spacing } else { 0.0 };
+        if zone_used > 0.0 && (zone - zone_used).abs() <= scale.spacing {
+            break;
+        }
+        let (line, _, straight) = edge_line(&pass.slabs, run.direction, scale, params);
+        let centre = if straight {
+            Centreline::straight(line, run.origin, run.direction, t0, t1, r)
+        } else {
+            Centreline::through(&robust_curve(&pass.slabs), run.origin, run.direction)
+        };
+        let wide = band.max(2.0 * zone + 2.0 * r);
+        match slab_pass(&ctx, &centre, zone, wide, rng, scratch, out) {
+            Ok(p) if p.slabs.len() >= 2 => {
+                pass = p;
+                zone_used = zone;
+                zone_raw = raw;
+            }
+            _ => break,
+        }
+    }
     let (line, _, straight) = edge_line(&pass.slabs, run.direction, scale, params);
     if straight {
         // A slab far off the edge's line saw something else (a neighbouring face, a gap):
@@ -302,6 +318,7 @@ fn fit_run(
     let dihedral_deg = *angles.select_nth_unstable_by(mid, f64::total_cmp).1;
     Ok(EdgeFit {
         run: k,
+        zone: zone_raw,
         straight,
         slabs: pass.slabs,
         line,
@@ -313,80 +330,108 @@ fn fit_run(
 }
 
 /// The best line through the slabs' rectified edge points (oriented like `towards`), their
-/// RMS distance to it, and whether that is small enough to call the edge straight. Slab
-/// corners farther than 4 robust sigmas from a first line are left out of the final one.
-fn edge_line(
-    slabs: &[SlabFit],
-    towards: [f64; 3],
-    scale: &Scale,
-    params: &EdgeParams,
-) -> (([f64; 3], [f64; 3]), f64, bool) {
+/// RMS distance to it, and whether the edge is straight. Slab corners farther than 4 robust
+/// sigmas from a first line are left out of the final one. Straight unless a smoothed curve
+/// through the corners fits clearly better than the line (curvature, not noise) and the line's
+/// RMS exceeds `straight_tolerance` spacings.
+fn edge_line(slabs: &[SlabFit], towards: [f64; 3], scale: &Scale, params: &EdgeParams) -> (([f64; 3], [f64; 3]), f64, bool) {
     let pts: Vec<[f64; 3]> = slabs.iter().map(|s| s.corner).collect();
     let all: Vec<usize> = (0..pts.len()).collect();
-    let orient = |l: ([f64; 3], [f64; 3])| {
-        (
-            l.0,
-            if dot(l.1, towards) < 0.0 {
-                l.1.map(|x| -x)
-            } else {
-                l.1
-            },
-        )
-    };
+    let orient = |l: ([f64; 3], [f64; 3])| (l.0, if dot(l.1, towards) < 0.0 { l.1.map(|x| -x) } else { l.1 });
     let Some(first) = pca_line(&pts, &all).map(orient) else {
-        return (
-            (pts.first().copied().unwrap_or([0.0; 3]), towards),
-            0.0,
-            true,
-        );
+        return ((pts.first().copied().unwrap_or([0.0; 3]), towards), 0.0, true);
     };
-    let mut d: Vec<f64> = pts.iter().map(|p| point_line_distance(*p, first)).collect();
-    let mut sorted = d.clone();
-    let mid = sorted.len() / 2;
-    let med = *sorted.select_nth_unstable_by(mid, f64::total_cmp).1;
-    let cut = (4.0 * 1.4826 * med).max(1e-12);
-    let keep: Vec<usize> = (0..pts.len()).filter(|&i| d[i] <= cut).collect();
+    let keep = inliers(&pts, |p| point_line_distance(p, first));
     let line = if keep.len() >= 2 && keep.len() < pts.len() {
         pca_line(&pts, &keep).map(orient).unwrap_or(first)
     } else {
         first
     };
-    d = keep
-        .iter()
-        .map(|&i| point_line_distance(pts[i], line))
-        .collect();
-    let rms = (d.iter().map(|x| x * x).sum::<f64>() / d.len().max(1) as f64).sqrt();
-    (line, rms, rms <= params.straight_tolerance * scale.spacing)
+    let kept: Vec<[f64; 3]> = keep.iter().map(|&i| pts[i]).collect();
+    let rms_of = |d: &mut dyn Iterator<Item = f64>| {
+        let (mut s, mut n) = (0.0, 0usize);
+        for x in d {
+            s += x * x;
+            n += 1;
+        }
+        (s / n.max(1) as f64).sqrt()
+    };
+    let rms = rms_of(&mut kept.iter().map(|p| point_line_distance(*p, line)));
+    let smooth = smooth_polyline(&kept, 3);
+    let rms_smooth = rms_of(&mut kept.iter().zip(&smooth).map(|(p, q)| norm(sub(*p, *q))));
+    let straight = rms <= params.straight_tolerance * scale.spacing || rms <= 1.5 * rms_smooth;
+    (line, rms, straight)
+}
+
+/// Indices of the points whose `dist` is within 4 robust sigmas (1.4826 · median).
+fn inliers(pts: &[[f64; 3]], dist: impl Fn([f64; 3]) -> f64) -> Vec<usize> {
+    let d: Vec<f64> = pts.iter().map(|p| dist(*p)).collect();
+    let mut sorted = d.clone();
+    if sorted.is_empty() {
+        return Vec::new();
+    }
+    let mid = sorted.len() / 2;
+    let cut = (4.0 * 1.4826 * *sorted.select_nth_unstable_by(mid, f64::total_cmp).1).max(1e-12);
+    (0..pts.len()).filter(|&i| d[i] <= cut).collect()
+}
+
+/// Moving average over ±`half` neighbours (shorter windows at the ends).
+pub fn smooth_polyline(pts: &[[f64; 3]], half: usize) -> Vec<[f64; 3]> {
+    (0..pts.len())
+        .map(|i| {
+            let lo = i.saturating_sub(half);
+            let hi = (i + half + 1).min(pts.len());
+            let mut s = [0.0; 3];
+            for p in &pts[lo..hi] {
+                s = add(s, *p);
+            }
+            s.map(|x| x / (hi - lo) as f64)
+        })
+        .collect()
+}
+
+/// The slab corners without the ones far off their smoothed neighbours, smoothed: the centre
+/// line of a curving edge for the next pass.
+fn robust_curve(slabs: &[SlabFit]) -> Vec<[f64; 3]> {
+    let pts: Vec<[f64; 3]> = slabs.iter().map(|s| s.corner).collect();
+    let smooth = smooth_polyline(&pts, 3);
+    let keep = inliers(&pts, |p| {
+        let i = pts.iter().position(|q| *q == p).unwrap_or(0);
+        norm(sub(p, smooth[i]))
+    });
+    let kept: Vec<[f64; 3]> = keep.iter().map(|&i| pts[i]).collect();
+    smooth_polyline(&kept, 3)
 }
 
 /// Radius of the abnormal zone around the corner, from the pooled residuals of every slab of
-/// an edge: going out from the corner, the last stretch (half-spacing bins) whose mean
-/// residual towards the other face stands clearly above the faces' own level. Faces are
+/// an edge: going out from the corner, the outer end of the last stretch (half-spacing bins)
+/// whose mean residual towards the other face stands clearly above the faces' own level. Faces are
 /// straight in the profile; a fillet or a lip bends towards the inside of the angle. 0 when no
 /// stretch deviates (a sharp edge).
-fn abnormal_zone(res: &[(f64, f64)], scale: &Scale) -> f64 {
-    if res.len() < 50 {
+fn abnormal_zone(res: &[(f64, f64, bool)], scale: &Scale, band: f64) -> f64 {
+    // The band's reach along the faces: a high percentile of the side points' distances (a
+    // corner-region point of a failed side can sit anywhere).
+    let mut s_side: Vec<f64> = res.iter().filter(|x| x.2 && x.0 >= 0.0).map(|x| x.0).collect();
+    if s_side.len() < 50 {
         return 0.0;
     }
+    let k = ((s_side.len() * 95) / 100).min(s_side.len() - 1);
+    let s_max = *s_side.select_nth_unstable_by(k, f64::total_cmp).1;
     let w = 0.5 * scale.spacing;
-    let s_max = res.iter().map(|x| x.0).fold(0.0, f64::max);
-    let nbin = ((s_max / w).ceil() as usize).clamp(1, 4096);
+    let limit = (0.5 * s_max).min(0.5 * band);
+    let nbin = ((limit / w).ceil() as usize).clamp(1, 4096);
     let mut sum = vec![0.0f64; nbin];
     let mut cnt = vec![0usize; nbin];
-    for &(s, r) in res {
-        if s < 0.0 {
+    for &(s, r, _) in res {
+        if s < 0.0 || s >= nbin as f64 * w {
             continue;
         }
         let b = ((s / w) as usize).min(nbin - 1);
         sum[b] += r;
         cnt[b] += 1;
     }
-    // The faces' level and spread: the outer half of the band.
-    let outer: Vec<f64> = res
-        .iter()
-        .filter(|x| x.0 > 0.5 * s_max)
-        .map(|x| x.1)
-        .collect();
+    // The faces' level and spread: side points in the outer half of the band.
+    let outer: Vec<f64> = res.iter().filter(|x| x.2 && x.0 > 0.5 * s_max && x.0 <= s_max).map(|x| x.1).collect();
     if outer.len() < 20 {
         return 0.0;
     }
@@ -396,16 +441,16 @@ fn abnormal_zone(res: &[(f64, f64)], scale: &Scale) -> f64 {
     let sigma = 1.4826 * *dev.select_nth_unstable_by(mid, f64::total_cmp).1;
     let mut zone = 0.0;
     for b in 0..nbin {
-        if (b as f64 + 1.0) * w > 0.5 * s_max || cnt[b] < 5 {
+        if cnt[b] < 5 {
             continue;
         }
         let mean = sum[b] / cnt[b] as f64 - level;
         let se = sigma / (cnt[b] as f64).sqrt();
         if mean > 3.0 * se && mean > 0.1 * sigma {
-            zone = (b as f64 + 1.5) * w;
+            zone = (b as f64 + 1.0) * w;
         }
     }
-    zone
+    zone.min(0.5 * band)
 }
 
 /// One pass of slab fits along `centre`, with the abnormal zone `zone` (0: the propagation
@@ -414,12 +459,12 @@ fn slab_pass(
     ctx: &RunCtx,
     centre: &Centreline,
     zone: f64,
+    band: f64,
     rng: &mut SmallRng,
     scratch: &mut ProfileScratch,
     out: &mut ProfileFit,
 ) -> Result<Pass, String> {
     let (k, scale, params) = (ctx.k, ctx.scale, ctx.params);
-    let band = params.band * scale.radius;
     let (t0, t1) = (ctx.t0, ctx.t1);
     // Band points: within `band` of the centre line, inside the usable stretch.
     let mut ids: Vec<u32> = Vec::new();
@@ -486,9 +531,9 @@ fn slab_pass(
         }
         let res = fit_profile_2d_zone(&profile, [0.0, 0.0], zone, ctx.fit, rng, scratch, out);
         if let Ok(spec) = std::env::var("SHARPEDGE_DUMP") {
-            if spec == format!("{k},{s}") || (spec == format!("{k},*") && zone > 0.0) {
+            if spec == format!("{k},{s}") || (spec == format!("{k},*") && zone > 0.0) || (spec == format!("{k},*1") && zone == 0.0) {
                 let j = serde_json::json!({"profile": profile, "ok": res.is_ok(), "sides": out.sides, "corner_region": out.corner_region, "local": [[out.local[0].point, out.local[0].direction],[out.local[1].point, out.local[1].direction]], "pso": out.pso.point, "exact": out.exact.point, "scheme1": out.scheme1.point, "errors": [out.scheme1.error, out.pso.error, out.exact.error], "noise": out.noise, "c": out.c, "d": out.d, "e1": e1, "e2": e2, "c3": c, "zone": zone});
-                if spec.ends_with('*') {
+                if spec.contains('*') {
                     use std::io::Write;
                     if let Ok(mut f) = std::fs::OpenOptions::new()
                         .create(true)
@@ -549,7 +594,7 @@ fn slab_pass(
 
 /// Appends (distance along the face from the exact corner, signed distance to the face's
 /// local line towards the other face) for every side and corner-region point of a fit.
-fn collect_residuals(profile: &[[f64; 2]], fit: &ProfileFit, out: &mut Vec<(f64, f64)>) {
+fn collect_residuals(profile: &[[f64; 2]], fit: &ProfileFit, out: &mut Vec<(f64, f64, bool)>) {
     let q = fit.exact.point;
     let dirs = [fit.local[0].direction, fit.local[1].direction];
     // Normal of each face line pointing to the other face's side.
@@ -563,22 +608,22 @@ fn collect_residuals(profile: &[[f64; 2]], fit: &ProfileFit, out: &mut Vec<(f64,
             n
         }
     });
-    let mut push = |i: usize, j: usize| {
+    let mut push = |i: usize, j: usize, side: bool| {
         let p = profile[i];
         let l = &fit.local[j];
         let s = (p[0] - q[0]) * dirs[j][0] + (p[1] - q[1]) * dirs[j][1];
         let r = (p[0] - l.point[0]) * normals[j][0] + (p[1] - l.point[1]) * normals[j][1];
-        out.push((s, r));
+        out.push((s, r, side));
     };
     for j in 0..2 {
         for &i in &fit.sides[j] {
-            push(i, j);
+            push(i, j, true);
         }
     }
     for &i in &fit.corner_region {
         let j =
             usize::from(fit.local[1].distance(&profile[i]) < fit.local[0].distance(&profile[i]));
-        push(i, j);
+        push(i, j, false);
     }
 }
 

@@ -27,6 +27,11 @@ pub struct RectifyParams {
     /// A point never moves farther than this many neighbourhood radii (a guard against a
     /// bad fit dragging points across the part).
     pub max_move: f64,
+    /// Abnormal points are moved out to this many spacings beyond the abnormal zone measured
+    /// from an edge's pooled residuals (near tangency a fillet leaves its face by less than
+    /// one bin can show). Measured at 500k points: 0 leaves a box's ratio at 0.15, 0.5 gives
+    /// 0.07; larger margins only move face points of a sharp wedge.
+    pub zone_margin: f64,
 }
 
 impl Default for RectifyParams {
@@ -34,6 +39,7 @@ impl Default for RectifyParams {
         RectifyParams {
             enabled: true,
             max_move: 1.0,
+            zone_margin: 0.5,
         }
     }
 }
@@ -65,6 +71,7 @@ pub fn rectify(
         label: vec![u32::MAX; positions.len()],
     };
     let max_move = params.max_move * scale.radius;
+    let zone_margin = params.zone_margin * scale.spacing;
     // Mean face traces per edge: a straight edge's faces are the same along it, and the mean
     // over slabs is far steadier than one slab's local fit.
     let mut faces_of: Vec<Option<[[f64; 3]; 2]>> = vec![None; edges.len()];
@@ -97,6 +104,10 @@ pub fn rectify(
                 let p = positions[i];
                 let (c, d) = g.nearest(p);
                 let faces = faces.map(|f| orthogonalise(f, d));
+                // Beyond the measured zone the scan is on its face already: leave it as read.
+                if e.zone > 0.0 && along_face(p, c, d, &faces) > e.zone + zone_margin {
+                    continue;
+                }
                 let q = onto_traces(p, c, d, &faces);
                 if norm(sub(q, p)) <= max_move {
                     out.positions[i] = q;
@@ -205,6 +216,22 @@ fn orthogonalise(f: [f64; 3], d: [f64; 3]) -> [f64; 3] {
     let g = sub(f, d.map(|x| x * dot(f, d)));
     let l = norm(g);
     if l > 1e-9 { g.map(|x| x / l) } else { f }
+}
+
+/// How far `p` lies out along the nearer face trace from the edge point `c` (in the plane
+/// perpendicular to `d`).
+fn along_face(p: [f64; 3], c: [f64; 3], d: [f64; 3], faces: &[[f64; 3]; 2]) -> f64 {
+    let v = sub(p, c);
+    let perp = sub(v, d.map(|x| x * dot(v, d)));
+    faces
+        .iter()
+        .map(|f| {
+            let s = dot(perp, *f).max(0.0);
+            (norm(sub(perp, f.map(|x| x * s))), s)
+        })
+        .min_by(|a, b| a.0.total_cmp(&b.0))
+        .map(|x| x.1)
+        .unwrap_or(0.0)
 }
 
 /// `p` moved within the plane perpendicular to `d` at edge point `c` onto the nearer of the
