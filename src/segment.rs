@@ -371,16 +371,24 @@ fn merge_collinear(
     r: f64,
     params: &SegmentParams,
 ) -> Vec<Run> {
-    let cos_par = params.turn_angle.to_radians().cos();
+    // The lateral-offset and gap checks below decide collinearity; the angle only has to
+    // allow a short piece whose direction is poorly determined.
+    let cos_par = params.turn_angle.max(params.direction_tolerance).to_radians().cos();
     loop {
         let mut merged = None;
         'outer: for a in 0..runs.len() {
             for b in a + 1..runs.len() {
-                let (ra, rb) = (&runs[a], &runs[b]);
+                let len = |r: &Run| r.t_range[1] - r.t_range[0];
+                // Measure against the longer run: its direction is the better known.
+                let (ra, rb) = if len(&runs[a]) >= len(&runs[b]) {
+                    (&runs[a], &runs[b])
+                } else {
+                    (&runs[b], &runs[a])
+                };
                 if dot(ra.direction, rb.direction).abs() < cos_par {
                     continue;
                 }
-                // Distance of b's line to a's line, and the gap along a's direction.
+                // Distance of b's centroid to a's line, and the gap along a's direction.
                 let off = sub(rb.origin, ra.origin);
                 let t = dot(off, ra.direction);
                 let perp = norm(sub(off, ra.direction.map(|c| c * t)));
