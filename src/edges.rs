@@ -255,9 +255,17 @@ fn fit_run(
     let mut zone_used = 0.0;
     let mut zone_raw = 0.0;
     for _ in 0..2 {
-        let raw = abnormal_zone(&pass.residuals, scale, 2.0 * band.max(2.0 * zone_used + 2.0 * r));
+        let raw = abnormal_zone(
+            &pass.residuals,
+            scale,
+            2.0 * band.max(2.0 * zone_used + 2.0 * r),
+        );
         // Fitting keeps half a bin more out: a side point must be clearly on its face.
-        let zone = if raw > 0.0 { raw + 0.25 * scale.spacing } else { 0.0 };
+        let zone = if raw > 0.0 {
+            raw + 0.25 * scale.spacing
+        } else {
+            0.0
+        };
         if zone_used > 0.0 && (zone - zone_used).abs() <= scale.spacing {
             break;
         }
@@ -334,12 +342,30 @@ fn fit_run(
 /// sigmas from a first line are left out of the final one. Straight unless a smoothed curve
 /// through the corners fits clearly better than the line (curvature, not noise) and the line's
 /// RMS exceeds `straight_tolerance` spacings.
-fn edge_line(slabs: &[SlabFit], towards: [f64; 3], scale: &Scale, params: &EdgeParams) -> (([f64; 3], [f64; 3]), f64, bool) {
+fn edge_line(
+    slabs: &[SlabFit],
+    towards: [f64; 3],
+    scale: &Scale,
+    params: &EdgeParams,
+) -> (([f64; 3], [f64; 3]), f64, bool) {
     let pts: Vec<[f64; 3]> = slabs.iter().map(|s| s.corner).collect();
     let all: Vec<usize> = (0..pts.len()).collect();
-    let orient = |l: ([f64; 3], [f64; 3])| (l.0, if dot(l.1, towards) < 0.0 { l.1.map(|x| -x) } else { l.1 });
+    let orient = |l: ([f64; 3], [f64; 3])| {
+        (
+            l.0,
+            if dot(l.1, towards) < 0.0 {
+                l.1.map(|x| -x)
+            } else {
+                l.1
+            },
+        )
+    };
     let Some(first) = pca_line(&pts, &all).map(orient) else {
-        return ((pts.first().copied().unwrap_or([0.0; 3]), towards), 0.0, true);
+        return (
+            (pts.first().copied().unwrap_or([0.0; 3]), towards),
+            0.0,
+            true,
+        );
     };
     let keep = inliers(&pts, |p| point_line_distance(p, first));
     let line = if keep.len() >= 2 && keep.len() < pts.len() {
@@ -411,7 +437,11 @@ fn robust_curve(slabs: &[SlabFit]) -> Vec<[f64; 3]> {
 fn abnormal_zone(res: &[(f64, f64, bool)], scale: &Scale, band: f64) -> f64 {
     // The band's reach along the faces: a high percentile of the side points' distances (a
     // corner-region point of a failed side can sit anywhere).
-    let mut s_side: Vec<f64> = res.iter().filter(|x| x.2 && x.0 >= 0.0).map(|x| x.0).collect();
+    let mut s_side: Vec<f64> = res
+        .iter()
+        .filter(|x| x.2 && x.0 >= 0.0)
+        .map(|x| x.0)
+        .collect();
     if s_side.len() < 50 {
         return 0.0;
     }
@@ -431,7 +461,11 @@ fn abnormal_zone(res: &[(f64, f64, bool)], scale: &Scale, band: f64) -> f64 {
         cnt[b] += 1;
     }
     // The faces' level and spread: side points in the outer half of the band.
-    let outer: Vec<f64> = res.iter().filter(|x| x.2 && x.0 > 0.5 * s_max && x.0 <= s_max).map(|x| x.1).collect();
+    let outer: Vec<f64> = res
+        .iter()
+        .filter(|x| x.2 && x.0 > 0.5 * s_max && x.0 <= s_max)
+        .map(|x| x.1)
+        .collect();
     if outer.len() < 20 {
         return 0.0;
     }
@@ -439,7 +473,10 @@ fn abnormal_zone(res: &[(f64, f64, bool)], scale: &Scale, band: f64) -> f64 {
     let mut dev: Vec<f64> = outer.iter().map(|r| (r - level).abs()).collect();
     let mid = dev.len() / 2;
     let sigma = 1.4826 * *dev.select_nth_unstable_by(mid, f64::total_cmp).1;
+    // The zone is contiguous from the corner: its outer end is where the deviation stops
+    // (one quiet bin is tolerated), not the last bin that happens to deviate by chance.
     let mut zone = 0.0;
+    let mut quiet = 0;
     for b in 0..nbin {
         if cnt[b] < 5 {
             continue;
@@ -448,6 +485,12 @@ fn abnormal_zone(res: &[(f64, f64, bool)], scale: &Scale, band: f64) -> f64 {
         let se = sigma / (cnt[b] as f64).sqrt();
         if mean > 3.0 * se && mean > 0.1 * sigma {
             zone = (b as f64 + 1.0) * w;
+            quiet = 0;
+        } else if zone > 0.0 {
+            quiet += 1;
+            if quiet > 1 {
+                break;
+            }
         }
     }
     zone.min(0.5 * band)
@@ -531,7 +574,10 @@ fn slab_pass(
         }
         let res = fit_profile_2d_zone(&profile, [0.0, 0.0], zone, ctx.fit, rng, scratch, out);
         if let Ok(spec) = std::env::var("SHARPEDGE_DUMP") {
-            if spec == format!("{k},{s}") || (spec == format!("{k},*") && zone > 0.0) || (spec == format!("{k},*1") && zone == 0.0) {
+            if spec == format!("{k},{s}")
+                || (spec == format!("{k},*") && zone > 0.0)
+                || (spec == format!("{k},*1") && zone == 0.0)
+            {
                 let j = serde_json::json!({"profile": profile, "ok": res.is_ok(), "sides": out.sides, "corner_region": out.corner_region, "local": [[out.local[0].point, out.local[0].direction],[out.local[1].point, out.local[1].direction]], "pso": out.pso.point, "exact": out.exact.point, "scheme1": out.scheme1.point, "errors": [out.scheme1.error, out.pso.error, out.exact.error], "noise": out.noise, "c": out.c, "d": out.d, "e1": e1, "e2": e2, "c3": c, "zone": zone});
                 if spec.contains('*') {
                     use std::io::Write;
@@ -556,6 +602,21 @@ fn slab_pass(
                     f.map(|x| x / norm(f))
                 });
                 let pso = out.pso.point;
+                // The points to rectify: the fit's corner region and every point of the slab
+                // within the zone (with noise and spacing to spare) of the corner; rectify
+                // decides along the faces which of them really leave their face.
+                let reach = zone + 0.5 * scale.spacing + 2.0 * scale.noise;
+                let mut abnormal: Vec<u32> =
+                    out.corner_region.iter().map(|&j| members[j]).collect();
+                if zone > 0.0 {
+                    for (j, q) in profile.iter().enumerate() {
+                        if (q[0] - pso[0]).powi(2) + (q[1] - pso[1]).powi(2) <= reach * reach {
+                            abnormal.push(members[j]);
+                        }
+                    }
+                    abnormal.sort_unstable();
+                    abnormal.dedup();
+                }
                 let abnormal_reach = out
                     .corner_region
                     .iter()
@@ -572,7 +633,7 @@ fn slab_pass(
                     corner_exact: lift(out.exact.point),
                     faces,
                     errors: [out.scheme1.error, out.pso.error, out.exact.error],
-                    abnormal: out.corner_region.iter().map(|&j| members[j]).collect(),
+                    abnormal,
                     abnormal_reach,
                     points: profile.len(),
                 });

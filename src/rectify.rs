@@ -27,9 +27,10 @@ pub struct RectifyParams {
     /// A point never moves farther than this many neighbourhood radii (a guard against a
     /// bad fit dragging points across the part).
     pub max_move: f64,
-    /// Abnormal points are moved out to this many spacings beyond the abnormal zone measured
-    /// from an edge's pooled residuals (near tangency a fillet leaves its face by less than
-    /// one bin can show). Measured at 500k points: 0 leaves a box's ratio at 0.15, 0.5 gives
+    /// Abnormal points are moved out to this many spacings (plus one noise sigma) beyond the
+    /// abnormal zone measured from an edge's pooled residuals: near tangency a fillet leaves
+    /// its face by less than one bin can show, and a noisy point's position along its face is
+    /// off by about σ. Measured at 500k points: 0 leaves a box's ratio at 0.15, 0.5 gives
     /// 0.07; larger margins only move face points of a sharp wedge.
     pub zone_margin: f64,
 }
@@ -71,7 +72,9 @@ pub fn rectify(
         label: vec![u32::MAX; positions.len()],
     };
     let max_move = params.max_move * scale.radius;
-    let zone_margin = params.zone_margin * scale.spacing;
+    // A point's position along its face is itself noisy by about σ: a fillet point near the
+    // tangent reads as farther out.
+    let zone_margin = params.zone_margin * scale.spacing + scale.noise;
     // Mean face traces per edge: a straight edge's faces are the same along it, and the mean
     // over slabs is far steadier than one slab's local fit.
     let mut faces_of: Vec<Option<[[f64; 3]; 2]>> = vec![None; edges.len()];
@@ -82,13 +85,8 @@ pub fn rectify(
         };
         let Some(id) = edge_of_run[k] else { continue };
         faces_of[k] = mean_faces(e);
-        let mut reaches: Vec<f64> = e.slabs.iter().map(|s| s.abnormal_reach).collect();
-        let mid = reaches.len() / 2;
-        reach_of[k] = if reaches.is_empty() {
-            0.0
-        } else {
-            *reaches.select_nth_unstable_by(mid, f64::total_cmp).1
-        };
+        // How far from the edge its scan leaves the faces: the measured zone and margin.
+        reach_of[k] = e.zone + zone_margin;
         for s in &e.slabs {
             let faces = if e.straight {
                 faces_of[k].unwrap_or(s.faces)
@@ -105,7 +103,7 @@ pub fn rectify(
                 let (c, d) = g.nearest(p);
                 let faces = faces.map(|f| orthogonalise(f, d));
                 // Beyond the measured zone the scan is on its face already: leave it as read.
-                if e.zone > 0.0 && along_face(p, c, d, &faces) > e.zone + zone_margin {
+                if along_face(p, c, d, &faces) > e.zone + zone_margin {
                     continue;
                 }
                 let q = onto_traces(p, c, d, &faces);
