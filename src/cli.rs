@@ -159,6 +159,12 @@ pub struct ExperimentArgs {
     /// Fewest particles (the corner region is grown to this many data points; default 20).
     #[arg(long)]
     pub min_particles: Option<usize>,
+    /// Start the swarm on corner-region data points only, as the paper does. By default one
+    /// more particle starts at the meeting point of the local side fits, as in the pipeline:
+    /// with the paper's 10 iterations in 3D that takes PSO from 91 % to 99.9 % of trials
+    /// within 1 % of the exact optimum (1000 trials, seed 1).
+    #[arg(long)]
+    pub paper_init: bool,
     /// Round the generated corners with a fillet (2D) or blunting (3D) of up to this size
     /// (the sides are 10 long). Not in the paper's data; a stress test of the search.
     #[arg(long, default_value_t = 0.0)]
@@ -399,6 +405,7 @@ fn experiment(cli: &Cli, a: &ExperimentArgs) -> anyhow::Result<()> {
         if let Some(n) = a.min_particles {
             params.min_particles = n;
         }
+        params.seed_with_intersection = !a.paper_init;
         let cfg = ExperimentConfig {
             dim,
             trials: a.trials,

@@ -688,7 +688,14 @@ impl Checker<'_> {
                 100.0,
                 true,
             )?,
-            zone_margin: self.number(&raw.rectify.zone_margin, "rectify.zone_margin", d.rectify.zone_margin, 0.0, 100.0, false)?,
+            zone_margin: self.number(
+                &raw.rectify.zone_margin,
+                "rectify.zone_margin",
+                d.rectify.zone_margin,
+                0.0,
+                100.0,
+                false,
+            )?,
         };
         raw.fit.validate().map_err(|err| match &err {
             Error::InvalidParameter { name, .. } => Error::Config {

@@ -207,7 +207,10 @@ pub fn edge_geometry(
                     [None, None] => vec![at(t_of(first)), at(t_of(last))],
                 }
             } else {
-                let mut pts = crate::edges::smooth_polyline(&e.slabs.iter().map(|s| s.corner).collect::<Vec<_>>(), 2);
+                let mut pts = crate::edges::smooth_polyline(
+                    &e.slabs.iter().map(|s| s.corner).collect::<Vec<_>>(),
+                    2,
+                );
                 if let Some(a) = ends[0] {
                     pts.insert(0, corners[a].position);
                 }

@@ -373,7 +373,11 @@ fn merge_collinear(
 ) -> Vec<Run> {
     // The lateral-offset and gap checks below decide collinearity; the angle only has to
     // allow a short piece whose direction is poorly determined.
-    let cos_par = params.turn_angle.max(params.direction_tolerance).to_radians().cos();
+    let cos_par = params
+        .turn_angle
+        .max(params.direction_tolerance)
+        .to_radians()
+        .cos();
     loop {
         let mut merged = None;
         'outer: for a in 0..runs.len() {

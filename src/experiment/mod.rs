@@ -202,9 +202,11 @@ fn search_all<const D: usize, O: Objective<D>>(
     time.scheme1 = micros(t);
     let mut pso_hist = Vec::with_capacity(iterations + 1);
     let t = Instant::now();
+    let mut init = Vec::with_capacity(p.candidates.len() + 1);
+    p.initial_swarm(params.seed_with_intersection, &mut init);
     let pso = fit::pso(
         p.objective,
-        p.candidates,
+        &init,
         &p.basis,
         p.scale,
         &params.pso,
@@ -216,9 +218,10 @@ fn search_all<const D: usize, O: Objective<D>>(
     time.pso = micros(t);
     let mut ga_hist = Vec::with_capacity(iterations + 1);
     let t = Instant::now();
+    // The same starting population as the swarm: the comparison is of the searches.
     let ga = fit::ga(
         p.objective,
-        p.candidates,
+        &init,
         &p.basis,
         p.scale,
         &params.ga,
@@ -570,6 +573,7 @@ impl ExperimentReport {
             "seed": self.seed,
             "rounding": self.abnormality.rounding,
             "min_particles": self.params.min_particles,
+            "seed_with_intersection": self.params.seed_with_intersection,
             "ok": s.ok,
             "failed": s.failed,
             "failures": self.records.iter().filter_map(|r| r.failure.as_ref().map(|f| json!({"trial": r.index, "error": f}))).collect::<Vec<_>>(),
@@ -615,7 +619,7 @@ impl ExperimentReport {
         let _ = writeln!(
             o,
             "{}D: {} trials (seed {}), {} fitted, {} failed; PSO w = {}, c1 = {}, c2 = {}, \
-             r ~ U[0, {}], {} iterations, {:.1} particles on average{}",
+             r ~ U[0, {}], {} iterations, {:.1} particles on average, started on {}{}",
             self.dim,
             self.trials,
             self.seed,
@@ -627,6 +631,11 @@ impl ExperimentReport {
             p.r_max,
             it,
             s.mean_particles,
+            if self.params.seed_with_intersection {
+                "the corner region and the local fits' meeting point"
+            } else {
+                "the corner region only (the paper)"
+            },
             if self.abnormality.rounding > 0.0 {
                 format!("; corners rounded up to {}", self.abnormality.rounding)
             } else {

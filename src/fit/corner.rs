@@ -106,6 +106,8 @@ pub struct CornerScratch {
     cand_scale: f64,
     /// The swarm's starting positions (candidates, plus the lines' meeting point if asked).
     init: Vec<[f64; 3]>,
+    /// The least-squares meeting point of the local lines (local frame).
+    meeting: Option<[f64; 3]>,
 }
 
 impl CornerScratch {
@@ -117,6 +119,7 @@ impl CornerScratch {
             candidates: &self.cand,
             basis: self.basis,
             scale: self.cand_scale,
+            meeting: self.meeting,
             points: &self.loc,
             assigned: &self.assigned,
             frame: self.frame?,
@@ -371,6 +374,7 @@ pub fn prepare_corner_3d(
     out.candidates
         .extend(s.cand_idx.iter().map(|&g| s.side_point(g)));
     out.noise = frame.length_to_input(sigma);
+    s.meeting = lines_meeting_point(&s.local);
     s.frame = Some(frame);
     Ok(())
 }
@@ -430,10 +434,10 @@ pub fn solve_corner_3d<R: Rng + ?Sized>(
     let mut init = std::mem::take(&mut s.init);
     init.clear();
     init.extend_from_slice(&s.cand);
-    if params.seed_with_intersection {
-        if let Some(q) = lines_meeting_point(&s.local) {
-            init.push(q);
-        }
+    if params.seed_with_intersection
+        && let Some(q) = s.meeting
+    {
+        init.push(q);
     }
     let p = pso(
         &s.obj,

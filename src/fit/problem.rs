@@ -63,12 +63,28 @@ pub struct Problem<'a, const D: usize, O> {
     pub basis: [[f64; D]; D],
     /// Extent of the candidates (RMS radius, local units): the initial velocity's scale.
     pub scale: f64,
+    /// Where the local side fits meet (their intersection in 2D, the least-squares point of
+    /// the lines in 3D), local frame: the piecewise estimate, which
+    /// [`super::FitParams::seed_with_intersection`] adds to the starting swarm.
+    pub meeting: Option<[f64; D]>,
     /// All input points in the local frame.
     pub points: &'a [[f64; D]],
     /// Per line: indices of the points scored against it.
     pub assigned: &'a [Vec<usize>],
     /// The map back to input coordinates.
     pub frame: Frame<D>,
+}
+
+impl<const D: usize, O> Problem<'_, D, O> {
+    /// The swarm's starting positions: the candidates, and the local fits' meeting point when
+    /// `seed_with_intersection` asks for it.
+    pub fn initial_swarm(&self, seed_with_intersection: bool, into: &mut Vec<[f64; D]>) {
+        into.clear();
+        into.extend_from_slice(self.candidates);
+        if seed_with_intersection && let Some(q) = self.meeting {
+            into.push(q);
+        }
+    }
 }
 
 /// RMS distance of `pts[idx]` from their centroid.

@@ -114,6 +114,8 @@ pub struct ProfileScratch {
     swarm: SwarmScratch<2>,
     frame: Option<Frame<2>>,
     cand_scale: f64,
+    /// The local fits' intersection (local frame), if they meet.
+    meeting: Option<[f64; 2]>,
 }
 
 impl ProfileScratch {
@@ -124,6 +126,7 @@ impl ProfileScratch {
             candidates: &self.cand,
             basis: self.basis,
             scale: self.cand_scale,
+            meeting: self.meeting,
             points: &self.loc,
             assigned: &self.assigned,
             frame: self.frame?,
@@ -460,6 +463,10 @@ pub fn prepare_profile_2d_zone(
             .add_line(&line.direction, assigned.iter().map(|&i| &loc[i]));
     }
 
+    // On a narrow V the error is nearly flat along the bisector: a swarm started only on
+    // corner-region points (inside the V) stops inside it. The local fits' intersection
+    // centres it on the optimum region (`seed_with_intersection`).
+    s.meeting = intersection(&local[0], &local[1]);
     out.local = [
         frame.line_to_input(&local[0]),
         frame.line_to_input(&local[1]),
@@ -504,13 +511,10 @@ pub fn solve_profile_2d<R: Rng + ?Sized>(
     let mut init = std::mem::take(&mut s.init);
     init.clear();
     init.extend_from_slice(&s.cand);
-    if params.seed_with_intersection {
-        // On a narrow V the error is nearly flat along the bisector: a swarm started only on
-        // corner-region points (inside the V) stops inside it. The local fits' intersection
-        // centres it on the optimum region.
-        if let Some(q) = intersection(&out.local[0], &out.local[1]) {
-            init.push(frame.to_local(&q));
-        }
+    if params.seed_with_intersection
+        && let Some(q) = s.meeting
+    {
+        init.push(q);
     }
     let p = pso(
         &s.obj,
