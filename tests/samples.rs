@@ -28,7 +28,10 @@ fn committed_pipeline_toml_holds_the_defaults() {
     let s = config::parse(&text, Path::new("pipeline.toml")).unwrap();
     let mut expected = Settings::default();
     expected.input.path = Some(PathBuf::from("samples/box.ply"));
-    assert_eq!(s, expected, "pipeline.toml sets a value other than its default");
+    assert_eq!(
+        s, expected,
+        "pipeline.toml sets a value other than its default"
+    );
 }
 
 /// Dotted keys of the leaves of a JSON object (`fit.pso.w`).
@@ -119,7 +122,10 @@ fn make_sh_commands() -> Vec<Vec<String>> {
         .filter_map(|l| l.strip_prefix("sharpedge "))
         .map(|l| l.split_whitespace().map(String::from).collect())
         .collect();
-    assert!(!cmds.is_empty(), "samples/make.sh runs no sharpedge command");
+    assert!(
+        !cmds.is_empty(),
+        "samples/make.sh runs no sharpedge command"
+    );
     cmds
 }
 
@@ -185,7 +191,11 @@ fn readme_run_command_finds_the_sample_box() {
             .iter()
             .map(|f| (0..3).map(|k| (f[k] - t[k]).powi(2)).sum::<f64>().sqrt())
             .fold(f64::INFINITY, f64::min);
-        assert!(d < 0.3 * h, "true corner {t:?}: nearest found {:.3} h away", d / h);
+        assert!(
+            d < 0.3 * h,
+            "true corner {t:?}: nearest found {:.3} h away",
+            d / h
+        );
     }
     assert_eq!(
         report["edges"].as_array().unwrap().len(),
