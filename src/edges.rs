@@ -324,6 +324,15 @@ fn fit_run(
         .collect();
     let mid = angles.len() / 2;
     let dihedral_deg = *angles.select_nth_unstable_by(mid, f64::total_cmp).1;
+    tracing::debug!(
+        "edge {k}: {} slabs ({} failed), abnormal zone {:.2} spacings, rms {:.3} spacings, \
+         dihedral {dihedral_deg:.1}°, {}",
+        pass.slabs.len(),
+        pass.failed,
+        zone_raw / scale.spacing,
+        rms / scale.spacing,
+        if straight { "straight" } else { "curved" }
+    );
     Ok(EdgeFit {
         run: k,
         zone: zone_raw,
@@ -460,35 +469,46 @@ fn abnormal_zone(res: &[(f64, f64, bool)], scale: &Scale, band: f64) -> f64 {
         sum[b] += r;
         cnt[b] += 1;
     }
-    // The faces' level and spread: side points in the outer half of the band.
-    let outer: Vec<f64> = res
+    // The faces' level and spread: side points in the outer half of the band. The level is a
+    // line in s, not a constant: pooled slabs whose face fits lean one way would otherwise
+    // read as a deviation growing towards the corner (seen at σ = 1 h as 6 h zones).
+    let outer: Vec<(f64, f64)> = res
         .iter()
         .filter(|x| x.2 && x.0 > 0.5 * s_max && x.0 <= s_max)
-        .map(|x| x.1)
+        .map(|x| (x.0, x.1))
         .collect();
     if outer.len() < 20 {
         return 0.0;
     }
-    let level = outer.iter().sum::<f64>() / outer.len() as f64;
-    let mut dev: Vec<f64> = outer.iter().map(|r| (r - level).abs()).collect();
+    let n = outer.len() as f64;
+    let (ms, mr) = outer
+        .iter()
+        .fold((0.0, 0.0), |(a, b), &(s, r)| (a + s / n, b + r / n));
+    let (sxx, sxy) = outer.iter().fold((0.0, 0.0), |(a, b), &(s, r)| {
+        (a + (s - ms) * (s - ms), b + (s - ms) * (r - mr))
+    });
+    let slope = if sxx > 0.0 { sxy / sxx } else { 0.0 };
+    let level = |s: f64| mr + slope * (s - ms);
+    let mut dev: Vec<f64> = outer.iter().map(|&(s, r)| (r - level(s)).abs()).collect();
     let mid = dev.len() / 2;
     let sigma = 1.4826 * *dev.select_nth_unstable_by(mid, f64::total_cmp).1;
     // The zone is contiguous from the corner: its outer end is where the deviation stops
-    // (one quiet bin is tolerated), not the last bin that happens to deviate by chance.
+    // (the first quiet bin ends it), not the last bin that happens to deviate: a slight bend
+    // of a face a few spacings out (0.05 h, seen on an L-block) is not the edge's rounding.
     let mut zone = 0.0;
     let mut quiet = 0;
     for b in 0..nbin {
         if cnt[b] < 5 {
             continue;
         }
-        let mean = sum[b] / cnt[b] as f64 - level;
+        let mean = sum[b] / cnt[b] as f64 - level((b as f64 + 0.5) * w);
         let se = sigma / (cnt[b] as f64).sqrt();
         if mean > 3.0 * se && mean > 0.1 * sigma {
             zone = (b as f64 + 1.0) * w;
             quiet = 0;
         } else if zone > 0.0 {
             quiet += 1;
-            if quiet > 1 {
+            if quiet > 0 {
                 break;
             }
         }

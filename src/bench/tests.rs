@@ -327,7 +327,13 @@ fn rectification_of_hand_made_points() {
         // Within 4 h of an edge, not abnormal: neither kind.
         truth_at(7.9, false, false),
     ];
-    let m = rectify_metrics(&positions, &rectified, &moved, &truth, h, |p| p[2].abs());
+    let away: Vec<bool> = truth
+        .iter()
+        .map(|t| !t.abnormal && !t.outlier && t.edge_distance > AWAY * h)
+        .collect();
+    let m = rectify_metrics(&positions, &rectified, &moved, &truth, &away, h, |p| {
+        p[2].abs()
+    });
     assert_eq!((m.abnormal_points, m.abnormal_moved), (2, 2));
     assert!((m.before_h.unwrap() - 1.0).abs() < 1e-15);
     assert!((m.after_h.unwrap() - 0.1).abs() < 1e-15);
@@ -468,4 +474,72 @@ fn sphere_case_runs_and_has_nothing_to_find() {
     assert_eq!(r.pass, r.checks.iter().all(|c| c.pass));
     let m = r.measured.unwrap();
     assert!(m.spacing_h > 0.8 && m.spacing_h < 1.1, "{m:?}");
+}
+
+#[test]
+fn away_from_edges_is_beyond_the_rounding_and_the_noise() {
+    let h = 0.5;
+    // A 90° edge rounded with 1.5 h, σ 0.15 h: 1.5 + 2 + 0.6 = 4.1 h.
+    assert!((away_limit(1.5 * h, 0.15, h) - 4.1 * h).abs() < 1e-12);
+    // A 30° wedge with the same rounding leaves its faces 5.6 h out: 8.2 h.
+    let td = 1.5 * h / (15f64.to_radians()).tan();
+    assert!((away_limit(td, 0.15, h) - (td + 2.6 * h)).abs() < 1e-12);
+    // Sharp and noise-free: never less than AWAY.
+    assert_eq!(away_limit(0.0, 0.0, h), AWAY * h);
+}
+
+/// Beside a vertex of a 30° edge, a point on the wedge's face just past the rounding is
+/// nearer to the end face's 90° edge than to the 30° edge; it is still not "away": the 30°
+/// edge's zone reaches farther. Far along the face it is.
+#[test]
+fn away_mask_takes_every_edge_into_account_near_vertices() {
+    let h = 1.0;
+    let scan = synth::generate(&SynthParams {
+        part: Part::Wedge,
+        angle: 30.0,
+        sampling: Sampling::Spacing(h),
+        round: 1.5,
+        size: Some(200.0),
+        ..SynthParams::default()
+    })
+    .unwrap();
+    let gt = &scan.ground_truth;
+    let apex = gt
+        .edges
+        .iter()
+        .find(|e| (e.dihedral_deg - 30.0).abs() < 1e-6)
+        .expect("the wedge has a 30° edge");
+    let d = unit(sub(apex.end, apex.start));
+    let n1 = apex.normals[1];
+    let mut u0 = unit(crate::synth::geom::cross(d, apex.normals[0]));
+    if dot(u0, n1) > 0.0 {
+        u0 = scale(u0, -1.0);
+    }
+    let at = |along: f64, out: f64| -> PointTruth {
+        let surface = add(apex.start, add(scale(d, along), scale(u0, out)));
+        let (edge_distance, nearest_edge) = gt
+            .edges
+            .iter()
+            .map(|e| (point_segment(surface, e.start, e.end).0, e.id as u32))
+            .min_by(|a, b| a.0.total_cmp(&b.0))
+            .unwrap();
+        PointTruth {
+            surface,
+            edge_distance,
+            nearest_edge,
+            face: 0,
+            abnormal: false,
+            outlier: false,
+        }
+    };
+    let near_vertex = at(4.8 * h, 6.0 * h);
+    let far = at(100.0 * h, 9.0 * h);
+    // The nearest edge of the first point is a 90° edge of the end face, 4.8 h away, beyond
+    // that edge's own limit (1.5 + 2 + 0.6 h)…
+    let nearest = &gt.edges[near_vertex.nearest_edge as usize];
+    assert!((nearest.dihedral_deg - 90.0).abs() < 1e-6);
+    assert!(near_vertex.edge_distance > away_limit(nearest.tangent_distance, 0.15, h));
+    // …but it lies within the 30° edge's zone (5.6 h) plus margin.
+    let mask = away_mask(&[near_vertex, far], gt, 0.15, h);
+    assert_eq!(mask, vec![false, true]);
 }
