@@ -20,7 +20,7 @@ use rand::rngs::SmallRng;
 use rayon::prelude::*;
 
 use crate::features::Scale;
-use crate::fit::{FitParams, ProfileFit, ProfileScratch, fit_profile_2d_zone};
+use crate::fit::{FitParams, ProfileFit, ProfileKnown, ProfileScratch, fit_profile_2d_zone};
 use crate::neighbours::Grid;
 use crate::segment::{Run, Segments, add, dot, norm, pca_line, sub};
 
@@ -245,7 +245,16 @@ fn fit_run(
     // Pass 1 along the run's band axis: where the sharp edge is, roughly, and how wide its
     // abnormal zone is.
     let band = params.band * r;
-    let first = slab_pass(&ctx, &Centreline::new(run), 0.0, band, rng, scratch, out)?;
+    let first = slab_pass(
+        &ctx,
+        &Centreline::new(run),
+        0.0,
+        None,
+        band,
+        rng,
+        scratch,
+        out,
+    )?;
     // Later passes go along the line (or curve) through the previous pass's rectified edge
     // points — slabs exactly across the edge, the approximate corner on it — and keep the
     // abnormal zone measured from the previous pass's pooled residuals out of the side fits,
@@ -276,13 +285,34 @@ fn fit_run(
             Centreline::through(&robust_curve(&pass.slabs), run.origin, run.direction)
         };
         let wide = band.max(2.0 * zone + 2.0 * r);
-        match slab_pass(&ctx, &centre, zone, wide, rng, scratch, out) {
+        match slab_pass(&ctx, &centre, zone, None, wide, rng, scratch, out) {
             Ok(p) if p.slabs.len() >= 2 => {
                 pass = p;
                 zone_used = zone;
                 zone_raw = raw;
             }
             _ => break,
+        }
+    }
+    // A straight edge has the same two faces in every slab: a last pass gives every slab's
+    // constrained lines the edge's mean face directions (see `ProfileKnown::slopes`), so a
+    // slab's corner only carries the noise of its lines' offsets, not of their slopes.
+    let (line, _, straight) = edge_line(&pass.slabs, run.direction, scale, params);
+    if straight && let Some(faces) = mean_faces(&pass.slabs) {
+        let centre = Centreline::straight(line, run.origin, run.direction, t0, t1, r);
+        let wide = band.max(2.0 * zone_used + 2.0 * r);
+        if let Ok(p) = slab_pass(
+            &ctx,
+            &centre,
+            zone_used,
+            Some(faces),
+            wide,
+            rng,
+            scratch,
+            out,
+        ) && p.slabs.len() >= 2
+        {
+            pass = p;
         }
     }
     let (line, _, straight) = edge_line(&pass.slabs, run.direction, scale, params);
@@ -517,11 +547,14 @@ fn abnormal_zone(res: &[(f64, f64, bool)], scale: &Scale, band: f64) -> f64 {
 }
 
 /// One pass of slab fits along `centre`, with the abnormal zone `zone` (0: the propagation
-/// alone decides).
+/// alone decides) and, if known, the directions of the two faces in 3D (the slopes of every
+/// slab's constrained lines).
+#[allow(clippy::too_many_arguments)]
 fn slab_pass(
     ctx: &RunCtx,
     centre: &Centreline,
     zone: f64,
+    faces: Option<[[f64; 3]; 2]>,
     band: f64,
     rng: &mut SmallRng,
     scratch: &mut ProfileScratch,
@@ -592,27 +625,11 @@ fn slab_pass(
             profile.push([dot(v, e1), dot(v, e2)]);
             members.push(i);
         }
-        let res = fit_profile_2d_zone(&profile, [0.0, 0.0], zone, ctx.fit, rng, scratch, out);
-        if let Ok(spec) = std::env::var("SHARPEDGE_DUMP") {
-            if spec == format!("{k},{s}")
-                || (spec == format!("{k},*") && zone > 0.0)
-                || (spec == format!("{k},*1") && zone == 0.0)
-            {
-                let j = serde_json::json!({"profile": profile, "ok": res.is_ok(), "sides": out.sides, "corner_region": out.corner_region, "local": [[out.local[0].point, out.local[0].direction],[out.local[1].point, out.local[1].direction]], "pso": out.pso.point, "exact": out.exact.point, "scheme1": out.scheme1.point, "errors": [out.scheme1.error, out.pso.error, out.exact.error], "noise": out.noise, "c": out.c, "d": out.d, "e1": e1, "e2": e2, "c3": c, "zone": zone});
-                if spec.contains('*') {
-                    use std::io::Write;
-                    if let Ok(mut f) = std::fs::OpenOptions::new()
-                        .create(true)
-                        .append(true)
-                        .open("/tmp/slabs.jsonl")
-                    {
-                        let _ = writeln!(f, "{j}");
-                    }
-                } else {
-                    let _ = std::fs::write("/tmp/slab.json", j.to_string());
-                }
-            }
-        }
+        let known = ProfileKnown {
+            zone,
+            slopes: faces.map(|f| f.map(|d| [dot(d, e1), dot(d, e2)])),
+        };
+        let res = fit_profile_2d_zone(&profile, [0.0, 0.0], &known, ctx.fit, rng, scratch, out);
         match res {
             Ok(()) => {
                 let lift = |q: [f64; 2]| add(c, add(e1.map(|x| x * q[0]), e2.map(|x| x * q[1])));
@@ -706,6 +723,31 @@ fn collect_residuals(profile: &[[f64; 2]], fit: &ProfileFit, out: &mut Vec<(f64,
             usize::from(fit.local[1].distance(&profile[i]) < fit.local[0].distance(&profile[i]));
         push(i, j, false);
     }
+}
+
+/// The mean of the slabs' face directions (each slab's two faces matched to the first slab's),
+/// normalised; `None` without slabs or when a mean vanishes.
+pub fn mean_faces(slabs: &[SlabFit]) -> Option<[[f64; 3]; 2]> {
+    let first = slabs.first()?.faces;
+    let mut acc = [[0.0; 3]; 2];
+    for s in slabs {
+        let swap = dot(s.faces[0], first[0]) + dot(s.faces[1], first[1])
+            < dot(s.faces[0], first[1]) + dot(s.faces[1], first[0]);
+        let f = if swap {
+            [s.faces[1], s.faces[0]]
+        } else {
+            s.faces
+        };
+        acc[0] = add(acc[0], f[0]);
+        acc[1] = add(acc[1], f[1]);
+    }
+    let out = acc.map(|f| {
+        let l = norm(f);
+        f.map(|x| x / l)
+    });
+    out.iter()
+        .all(|f| f.iter().all(|x| x.is_finite()))
+        .then_some(out)
 }
 
 /// Distance from `p` to the line (point, unit direction).

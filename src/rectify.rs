@@ -14,7 +14,7 @@
 //! the corner.
 
 use crate::corners::{CornerFit, EdgeGeometry};
-use crate::edges::EdgeFit;
+use crate::edges::{EdgeFit, mean_faces};
 use crate::features::Scale;
 use crate::neighbours::Grid;
 use crate::segment::{add, dot, norm, sub};
@@ -84,7 +84,7 @@ pub fn rectify(
             continue;
         };
         let Some(id) = edge_of_run[k] else { continue };
-        faces_of[k] = mean_faces(e);
+        faces_of[k] = mean_faces(&e.slabs);
         // How far from the edge its scan leaves the faces: the measured zone and margin.
         reach_of[k] = e.zone + zone_margin;
         for s in &e.slabs {
@@ -182,31 +182,6 @@ fn grid_ball(grid: &Grid, q: [f64; 3], r: f64) -> Vec<u32> {
     grid.for_each_near_segment(q, q, r, |i| v.push(i));
     v.sort_unstable();
     v
-}
-
-/// The mean of the slabs' face traces (each trace's two faces in a consistent order).
-fn mean_faces(e: &EdgeFit) -> Option<[[f64; 3]; 2]> {
-    let first = e.slabs.first()?.faces;
-    let mut acc = [[0.0; 3]; 2];
-    for s in &e.slabs {
-        // Match the slab's faces to the first slab's.
-        let swap = dot(s.faces[0], first[0]) + dot(s.faces[1], first[1])
-            < dot(s.faces[0], first[1]) + dot(s.faces[1], first[0]);
-        let f = if swap {
-            [s.faces[1], s.faces[0]]
-        } else {
-            s.faces
-        };
-        acc[0] = add(acc[0], f[0]);
-        acc[1] = add(acc[1], f[1]);
-    }
-    let out = acc.map(|f| {
-        let l = norm(f);
-        f.map(|x| x / l)
-    });
-    out.iter()
-        .all(|f| f.iter().all(|x| x.is_finite()))
-        .then_some(out)
 }
 
 /// `f` without its component along unit `d`, normalised (falls back to `f`).

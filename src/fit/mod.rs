@@ -102,7 +102,7 @@ pub use line::{
 pub use objective::{FixedSlopes2, FixedSlopes3, JointSlopes, Objective, fitness};
 pub use params::{FitParams, Searcher};
 pub use problem::{Frame, Problem};
-pub use profile::{ProfileFit, ProfileScratch, prepare_profile_2d, solve_profile_2d};
+pub use profile::{ProfileFit, ProfileKnown, ProfileScratch, prepare_profile_2d, solve_profile_2d};
 pub use propagate::{PolylineSplit, PropagationParams, propagate_polyline, propagate_run};
 pub use pso::{PsoParams, Search, SwarmScratch, converged_at, pso};
 pub use refine::refine_joint;
@@ -143,19 +143,19 @@ pub fn fit_profile_2d_with<R: Rng + ?Sized>(
     solve_profile_2d(params, rng, scratch, out)
 }
 
-/// [`fit_profile_2d_with`] with a known abnormal zone of radius `zone` around the approximate
-/// corner (see [`profile::prepare_profile_2d_zone`]).
+/// [`fit_profile_2d_with`] with what the rest of the edge tells: the abnormal zone around the
+/// approximate corner, and possibly the faces' directions (see [`ProfileKnown`]).
 #[allow(clippy::too_many_arguments)]
 pub fn fit_profile_2d_zone<R: Rng + ?Sized>(
     points: &[[f64; 2]],
     approx_corner: [f64; 2],
-    zone: f64,
+    known: &ProfileKnown,
     params: &FitParams,
     rng: &mut R,
     scratch: &mut ProfileScratch,
     out: &mut ProfileFit,
 ) -> Result<()> {
-    profile::prepare_profile_2d_zone(points, approx_corner, zone, params, scratch, out)?;
+    profile::prepare_profile_2d_zone(points, approx_corner, known, params, scratch, out)?;
     solve_profile_2d(params, rng, scratch, out)
 }
 
