@@ -2,6 +2,7 @@
 """Opens PLY files with the real CloudCompare and MeshLab (pymeshlab) and checks what they show.
 
 Usage: check_viewers.py FILE.ply...   (scripts/check_viewers.sh installs the programs first)
+       check_viewers.py --self-test   (writes broken files and checks that they are caught)
 
 For each file, the PLY is parsed here (ascii, binary little/big endian; vertex and edge
 elements, other elements skipped) to know what it holds, then:
@@ -11,8 +12,14 @@ elements, other elements skipped) to know what it holds, then:
   vertex property as a scalar field (CloudCompare shows it without the `scalar_` prefix) with
   the file's values, the colours when the file has red/green/blue, and the coordinates.
 * MeshLab (pymeshlab) loads it; the vertex count, the coordinates, `quality` (MeshLab's
-  per-vertex scalar) and the colours must match the file, and so must the edge count when the
-  file has `element edge`.
+  per-vertex scalar) and the colours must match the file, and so must the edges (count and
+  end points) when the file has `element edge`.
+* Every vertex property must be shown by at least one of the two: a custom property whose
+  name lacks `scalar` is loaded by neither.
+
+Coordinates must agree within 1e-6 of the cloud's extent (bounding-box diagonal): that keeps
+georeferenced files honest, where an error relative to the coordinates' magnitude (4e6) would
+let float rounding (0.25 at 4e6) through.
 
 Prints what each program showed and exits 1 if anything does not match.
 """
@@ -104,6 +111,33 @@ def close(a, b, rel=1e-6, abs_=1e-6):
     return a.shape == b.shape and np.allclose(a, b, rtol=rel, atol=abs_)
 
 
+# Vertex properties each viewer shows (besides CloudCompare's `*scalar*` scalar fields).
+CC_SHOWS = {"x", "y", "z", "red", "green", "blue", "nx", "ny", "nz"}
+MESHLAB_SHOWS = {"x", "y", "z", "red", "green", "blue", "alpha", "nx", "ny", "nz", "quality"}
+# Largest coordinate error, relative to the cloud's extent.
+COORD_REL = 1e-6
+
+
+def report_coordinates(viewer, shown, vertex, problems):
+    """Compares a viewer's coordinates (n x 3) with the file's; prints the largest error."""
+    xyz = np.stack([np.asarray(vertex[a], dtype=np.float64) for a in "xyz"], axis=1)
+    if len(xyz) == 0:
+        return
+    diag = float(np.linalg.norm(xyz.max(axis=0) - xyz.min(axis=0)))
+    magnitude = float(np.max(np.abs(xyz)))
+    # Never below double rounding of the values (a single point has no extent).
+    tol = max(COORD_REL * diag, 8 * np.finfo(np.float64).eps * magnitude)
+    err = float(np.max(np.abs(np.asarray(shown, dtype=np.float64) - xyz)))
+    ok = err <= tol
+    print(f"  {viewer}: coordinates {'match' if ok else 'DIFFER'} (largest difference "
+          f"{err:.3g} = {err / diag if diag else 0:.2g} of the extent {diag:.4g}, "
+          f"{err / magnitude if magnitude else 0:.2g} of the largest coordinate "
+          f"{magnitude:.6g})")
+    if not ok:
+        problems.append(f"{viewer}: coordinates differ by up to {err:.3g}, more than "
+                        f"{COORD_REL:g} of the extent ({tol:.3g})")
+
+
 def check_cloudcompare(path, vertex, problems):
     work = tempfile.mkdtemp(prefix="cc_check_")
     try:
@@ -137,12 +171,11 @@ def check_cloudcompare(path, vertex, problems):
             problems.append(f"CloudCompare: {rows.shape[0]} points, the file has {n}")
             return
         col = {name: rows[:, i] for i, name in enumerate(header)}
-        xyz_ok = all(close(col[a], vertex[a.lower()], rel=1e-9, abs_=1e-5) for a in "XYZ")
-        err = max(float(np.max(np.abs(col[a] - vertex[a.lower()]))) for a in "XYZ")
-        print(f"  CloudCompare: coordinates {'match' if xyz_ok else 'DIFFER'} "
-              f"(largest difference {err:.3g})")
-        if not xyz_ok:
-            problems.append(f"CloudCompare: coordinates differ by up to {err}")
+        if not all(a in col for a in "XYZ"):
+            problems.append(f"CloudCompare: no X Y Z columns in its export ({header})")
+            return
+        report_coordinates("CloudCompare", np.stack([col[a] for a in "XYZ"], axis=1),
+                           vertex, problems)
         for prop, values in vertex.items():
             if "scalar" not in prop:
                 continue
@@ -155,7 +188,10 @@ def check_cloudcompare(path, vertex, problems):
                 problems.append(f"CloudCompare: values of `{prop}` differ")
                 print(f"  CloudCompare: `{prop}` shown as `{name}` with DIFFERENT values")
             else:
-                print(f"  CloudCompare: `{prop}` shown as scalar field `{name}`, values match")
+                shown_range = (f", min {np.min(col[name]):.6g} max {np.max(col[name]):.6g}"
+                               if len(values) else "")
+                print(f"  CloudCompare: `{prop}` shown as scalar field `{name}`, values "
+                      f"match{shown_range}")
         if all(c in vertex for c in ("red", "green", "blue")):
             ok = all(c in col for c in "RGB") and all(
                 close(col[c], vertex[name]) for c, name in zip("RGB", ("red", "green", "blue")))
@@ -166,7 +202,7 @@ def check_cloudcompare(path, vertex, problems):
         shutil.rmtree(work, ignore_errors=True)
 
 
-def check_meshlab(path, elements, vertex, edges, problems):
+def check_meshlab(path, vertex, edge_count, edges, problems):
     import pymeshlab
     ms = pymeshlab.MeshSet()
     try:
@@ -183,15 +219,12 @@ def check_meshlab(path, elements, vertex, edges, problems):
     if m.vertex_number() != n:
         problems.append(f"MeshLab: {m.vertex_number()} vertices, the file has {n}")
         return
-    xyz = np.stack([vertex["x"], vertex["y"], vertex["z"]], axis=1)
-    err = float(np.max(np.abs(m.vertex_matrix() - xyz))) if n else 0.0
-    print(f"  MeshLab: coordinates {'match' if err <= 1e-5 else 'DIFFER'} "
-          f"(largest difference {err:.3g})")
-    if err > 1e-5:
-        problems.append(f"MeshLab: coordinates differ by up to {err}")
+    report_coordinates("MeshLab", m.vertex_matrix(), vertex, problems)
     if "quality" in vertex:
         ok = m.has_vertex_scalar() and close(m.vertex_scalar_array(), vertex["quality"])
-        print(f"  MeshLab: quality {'matches' if ok else 'MISSING or DIFFERENT'}")
+        shown_range = (f" (min {np.min(m.vertex_scalar_array()):.6g} max "
+                       f"{np.max(m.vertex_scalar_array()):.6g})" if ok and n else "")
+        print(f"  MeshLab: quality {'matches' if ok else 'MISSING or DIFFERENT'}{shown_range}")
         if not ok:
             problems.append("MeshLab: quality missing or different")
     if all(c in vertex for c in ("red", "green", "blue")):
@@ -200,34 +233,101 @@ def check_meshlab(path, elements, vertex, edges, problems):
         print(f"  MeshLab: colours {'match' if ok else 'MISSING or DIFFERENT'}")
         if not ok:
             problems.append("MeshLab: colours missing or different")
-    if edges is not None and m.edge_number() != edges:
-        problems.append(f"MeshLab: {m.edge_number()} edges, the file has {edges}")
+    if edge_count is not None:
+        if m.edge_number() != edge_count:
+            print(f"  MeshLab: {m.edge_number()} edges, the file has {edge_count}")
+            problems.append(f"MeshLab: {m.edge_number()} edges, the file has {edge_count}")
+        elif edges is not None:
+            shown = np.sort(np.asarray(m.edge_matrix(), dtype=np.int64).reshape(-1, 2), axis=1)
+            wanted = np.sort(np.stack([edges["vertex1"], edges["vertex2"]], axis=1)
+                             .astype(np.int64), axis=1)
+            # Compared as sets of vertex pairs, in case MeshLab reorders them.
+            ok = sorted(map(tuple, shown)) == sorted(map(tuple, wanted))
+            print(f"  MeshLab: {edge_count} edges, end points {'match' if ok else 'DIFFER'}")
+            if not ok:
+                problems.append("MeshLab: edge end points differ from the file's")
+
+
+def check_file(path):
+    """Checks one file with both viewers; returns the list of problems."""
+    try:
+        elements, data = read_ply(path)
+    except Exception as e:
+        print(f"  cannot parse it here: {e}")
+        return [f"cannot parse it here: {e}"]
+    vertex = data.get("vertex")
+    if vertex is None:
+        print("  no vertex element without lists: nothing to check")
+        return ["no vertex element without lists"]
+    edge_count = next((c for name, c, _ in elements if name == "edge"), None)
+    edges = data.get("edge")
+    if edges is not None and not all(k in edges for k in ("vertex1", "vertex2")):
+        edges = None
+    print(f"  file: {len(vertex['x'])} vertices, properties {' '.join(vertex)}"
+          + (f", {edge_count} edges" if edge_count is not None else ""))
+    problems = []
+    for p in vertex:
+        if "scalar" not in p and p not in CC_SHOWS and p not in MESHLAB_SHOWS:
+            print(f"  `{p}` is shown by NEITHER viewer")
+            problems.append(f"property `{p}` is shown by neither viewer (CloudCompare loads "
+                            f"custom properties only when the name contains `scalar`)")
+    if edge_count is not None and edges is None:
+        problems.append("`element edge` is not `int vertex1, int vertex2`")
+    check_cloudcompare(path, vertex, problems)
+    check_meshlab(path, vertex, edge_count, edges, problems)
+    return problems
+
+
+def self_test():
+    """Writes a good file and files each check must catch; returns 1 unless the good one
+    passes and every bad one fails for the expected reason."""
+    header = ("ply\nformat ascii 1.0\nelement vertex 4\nproperty double x\n"
+              "property double y\nproperty double z\nproperty float {name}\n"
+              "property float quality\nproperty uchar red\nproperty uchar green\n"
+              "property uchar blue\n{edge}end_header\n")
+    # Georeferenced doubles, 2^-3 steps: exact in binary and in the ascii text.
+    rows = "".join(f"{4101234.5 + 0.5 * i} {512345.125 - 0.25 * i} {80 + 0.125 * i} "
+                   f"{0.25 * i} {0.5 * i} {50 * i} 7 {255 - 50 * i}\n" for i in range(4))
+    good_edge = "element edge 2\nproperty int vertex1\nproperty int vertex2\n"
+    list_edge = "element edge 2\nproperty list uchar int vertex_indices\n"
+    cases = [
+        ("good.ply", header.format(name="scalar_value", edge=good_edge) + rows
+         + "0 1\n2 3\n", None),
+        ("unseen.ply", header.format(name="sharpness", edge="") + rows,
+         "`sharpness` is shown by neither viewer"),
+        ("list_edges.ply", header.format(name="scalar_value", edge=list_edge) + rows
+         + "2 0 1\n2 2 3\n", "`element edge` is not `int vertex1, int vertex2`"),
+    ]
+    work = tempfile.mkdtemp(prefix="viewer_self_test_")
+    wrong = 0
+    try:
+        for name, text, expected in cases:
+            path = os.path.join(work, name)
+            with open(path, "w") as f:
+                f.write(text)
+            print(f"{name} (expected: {expected or 'OK'}):")
+            problems = check_file(path)
+            for p in problems:
+                print(f"  PROBLEM: {p}")
+            ok = not problems if expected is None else any(expected in p for p in problems)
+            print(f"  self-test {'passed' if ok else 'FAILED'}")
+            wrong += not ok
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
+    print(f"self-test: {len(cases) - wrong} of {len(cases)} cases as expected")
+    return 1 if wrong else 0
 
 
 def main(paths):
     if not paths:
         print(__doc__)
         return 2
+    if paths == ["--self-test"]:
+        return self_test()
     failed = 0
     for path in paths:
         print(f"{path}:")
-        try:
-            elements, data = read_ply(path)
-        except Exception as e:
-            print(f"  cannot parse it here: {e}")
-            failed += 1
-            continue
-        vertex = data.get("vertex")
-        if vertex is None:
-            print("  no vertex element without lists: nothing to check")
-            failed += 1
-            continue
-        edges = next((c for name, c, _ in elements if name == "edge"), None)
-        print(f"  file: {len(vertex['x'])} vertices, properties "
-              f"{' '.join(vertex)}" + (f", {edges} edges" if edges is not None else ""))
-        problems = []
-        check_cloudcompare(path, vertex, problems)
-        check_meshlab(path, elements, vertex, edges, problems)
+        problems = check_file(path)
         if problems:
             failed += 1
             for p in problems:
