@@ -82,11 +82,14 @@ pub struct SynthArgs {
     /// Rotate the part by a random rotation (drawn from --seed).
     #[arg(long)]
     pub rotate: bool,
-    /// Translate the part by X,Y,Z (e.g. a georeferenced offset 512345.1,4101234.5,80).
+    /// Translate the part by X,Y,Z (e.g. a georeferenced offset 512345.1,4101234.5,80; three
+    /// separate values are accepted too).
+    // clap counts `num_args` before splitting at the delimiter: 1..=3 takes both `X,Y,Z`
+    // and `X Y Z`; the count of three is checked after parsing.
     #[arg(
         long,
         value_delimiter = ',',
-        num_args = 3,
+        num_args = 1..=3,
         allow_negative_numbers = true
     )]
     pub translate: Option<Vec<f64>>,

@@ -90,7 +90,27 @@ pub fn run(settings: &Settings) -> Result<Summary> {
         message: "no input cloud: set input.path in the pipeline file or pass --input".into(),
     })?;
     let out_dir = settings.output.dir.clone();
+    // The folders this run makes (the output folder and missing parents), deepest first.
+    let created: Vec<PathBuf> = out_dir
+        .ancestors()
+        .take_while(|d| !d.as_os_str().is_empty() && !d.exists())
+        .map(Path::to_path_buf)
+        .collect();
     prepare_output_dir(&out_dir)?;
+    let result = run_into(settings, input, &out_dir);
+    if result.is_err() {
+        // A failed run leaves no trace, not even the empty folders it made; `remove_dir`
+        // removes only an empty folder, so nothing else can go.
+        for d in &created {
+            if std::fs::remove_dir(d).is_err() {
+                break;
+            }
+        }
+    }
+    result
+}
+
+fn run_into(settings: &Settings, input: PathBuf, out_dir: &Path) -> Result<Summary> {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(settings.threads)
         .build()
@@ -108,7 +128,7 @@ pub fn run(settings: &Settings) -> Result<Summary> {
         )?;
         clock.lap("read");
         let outcome = process(cloud, settings, &mut clock)?;
-        let outputs = report::write_all(&outcome, settings, &out_dir, &clock.timings)?;
+        let outputs = report::write_all(&outcome, settings, out_dir, &clock.timings)?;
         clock.lap("write");
         Ok(Summary {
             input,

@@ -284,6 +284,42 @@ const OWN_FIELDS: [&str; 8] = [
     "blue",
 ];
 
+/// Whether a carried attribute would be taken by a viewer for sharpedge's own fields, so it
+/// must be renamed: one of sharpedge's names, `alpha` (MeshLab joins it to the edge colours)
+/// or a float `intensity` (MeshLab paints it over the colours as grey; other types it
+/// ignores, and CloudCompare shows any `intensity` as a scalar field).
+fn clashes_with_own(a: &Attribute) -> bool {
+    let name = a.name.as_str();
+    OWN_FIELDS.contains(&name)
+        || name == "alpha"
+        || (name == "intensity" && matches!(a.values, Column::F32(_)))
+}
+
+/// The carried attributes as written: in input order, each clashing one renamed
+/// `input_<name>` (`input_input_<name>`... when that is taken too, e.g. when the input is a
+/// rectified.ply that already has `input_red` beside `red`).
+fn carried_names(attributes: &[Attribute]) -> Vec<String> {
+    let mut taken: std::collections::HashSet<String> = OWN_FIELDS
+        .iter()
+        .map(|s| s.to_string())
+        .chain(attributes.iter().map(|a| a.name.clone()))
+        .collect();
+    attributes
+        .iter()
+        .map(|a| {
+            if !clashes_with_own(a) {
+                return a.name.clone();
+            }
+            let mut name = format!("input_{}", a.name);
+            while taken.contains(&name) {
+                name = format!("input_{name}");
+            }
+            taken.insert(name.clone());
+            name
+        })
+        .collect()
+}
+
 fn write_rectified(path: &Path, outcome: &Outcome, opts: &PlyWriteOptions) -> Result<()> {
     let cloud = &outcome.cloud;
     let n = cloud.len();
@@ -341,27 +377,28 @@ fn write_rectified(path: &Path, outcome: &Outcome, opts: &PlyWriteOptions) -> Re
             values: Column::U8(blue),
         },
     ];
+    let names = carried_names(&cloud.attributes);
     let renamed: Vec<Attribute> = cloud
         .attributes
         .iter()
-        .filter(|a| OWN_FIELDS.contains(&a.name.as_str()))
-        .map(|a| Attribute {
-            name: format!("input_{}", a.name),
+        .zip(&names)
+        .filter(|(a, name)| a.name != **name)
+        .map(|(a, name)| Attribute {
+            name: name.clone(),
             values: a.values.clone(),
         })
         .collect();
-    let mut attrs: Vec<&Attribute> = Vec::new();
+    // sharpedge's own fields first: CloudCompare takes the first property whose name
+    // contains `red` (`green`, `blue`) as the colour, which would otherwise be `input_red`.
+    let mut attrs: Vec<&Attribute> = own.iter().collect();
     let mut renamed_iter = renamed.iter();
-    for a in &cloud.attributes {
-        if OWN_FIELDS.contains(&a.name.as_str()) {
-            if let Some(r) = renamed_iter.next() {
-                attrs.push(r);
-            }
-        } else {
+    for (a, name) in cloud.attributes.iter().zip(&names) {
+        if a.name == *name {
             attrs.push(a);
+        } else if let Some(r) = renamed_iter.next() {
+            attrs.push(r);
         }
     }
-    attrs.extend(own.iter());
     io::write_ply(path, &outcome.rectified, &attrs, &[], opts)
 }
 

@@ -49,6 +49,11 @@ pub struct ReadOptions {
 const READ_EXTENSIONS: &str =
     "sharpedge reads .ply, .las, .laz (also .copc.laz), and text .xyz, .txt, .pts, .pwn";
 
+/// The same for a triangle mesh, which is no scan but can be made into one.
+const READ_EXTENSIONS_MESH: &str = "sharpedge reads .ply, .las, .laz (also .copc.laz), and \
+    text .xyz, .txt, .pts, .pwn; a triangle mesh is sampled into a scan with `sharpedge synth \
+    --mesh FILE --out scan.ply`";
+
 /// Point counts from which readers show a progress bar (small files would only flicker).
 pub(crate) const PROGRESS_MIN_POINTS: u64 = 1 << 20;
 
@@ -73,7 +78,11 @@ fn format_of(path: &Path) -> Result<Format> {
         _ => Err(Error::UnknownFormat {
             path: path.to_path_buf(),
             ext: ext.to_string(),
-            allowed: READ_EXTENSIONS,
+            allowed: if matches!(ext, "off" | "obj") {
+                READ_EXTENSIONS_MESH
+            } else {
+                READ_EXTENSIONS
+            },
         }),
     }
 }
@@ -415,6 +424,11 @@ mod tests {
             "{e}"
         );
         assert!(e.contains(".ply"), "{e}");
+        let e = format_of(Path::new("fandisk.OFF")).unwrap_err().to_string();
+        assert!(
+            e.ends_with("a triangle mesh is sampled into a scan with `sharpedge synth --mesh FILE --out scan.ply`"),
+            "{e}"
+        );
         let e = format_of(Path::new("noext")).unwrap_err().to_string();
         assert!(e.contains("unknown file type \"\""), "{e}");
     }
