@@ -188,6 +188,23 @@ struct Counts {
 }
 
 /// Writes the three output files; returns their paths.
+/// An I/O error on a file in the staging folder, reported against the output the user asked
+/// for (`out/rectified.ply`, not `out/.sharpedge-run-XXXX/rectified.ply`).
+fn at_destination(e: Error, staging: &Path, to: &Path) -> Error {
+    match e {
+        Error::Io {
+            path,
+            action,
+            source,
+        } if path.starts_with(staging) => Error::Io {
+            path: to.to_path_buf(),
+            action,
+            source,
+        },
+        e => e,
+    }
+}
+
 pub fn write_all(
     outcome: &Outcome,
     settings: &Settings,
@@ -231,9 +248,15 @@ pub fn write_all(
             )
         })?;
     let staged: Vec<PathBuf> = names.iter().map(|n| staging.path().join(n)).collect();
-    write_rectified(&staged[0], outcome, &opts)?;
-    write_features(&staged[1], outcome, &opts)?;
-    write_report(&staged[2], outcome, settings, timings)?;
+    let staging_dir = staging.path().to_path_buf();
+    let named = |i: usize| {
+        let to = dir.join(names[i]);
+        let st = staging_dir.clone();
+        move |e| at_destination(e, &st, &to)
+    };
+    write_rectified(&staged[0], outcome, &opts).map_err(named(0))?;
+    write_features(&staged[1], outcome, &opts).map_err(named(1))?;
+    write_report(&staged[2], outcome, settings, timings).map_err(named(2))?;
     let mut placed: Vec<PathBuf> = Vec::new();
     for (from, name) in staged.iter().zip(names) {
         let to = dir.join(name);
@@ -529,4 +552,30 @@ pub fn colour(id: u32) -> [u8; 3] {
         _ => (1.0, 0.0, x),
     };
     [r, g, b].map(|c: f64| (40.0 + 215.0 * c) as u8)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn staging_errors_name_the_final_output() {
+        let staging = Path::new("out/.sharpedge-run-abc");
+        let to = Path::new("out/rectified.ply");
+        let e = Error::io(
+            staging.join(".tmp123"),
+            "cannot write",
+            std::io::Error::other("No space left on device"),
+        );
+        let msg = at_destination(e, staging, to).to_string();
+        assert!(msg.contains("out/rectified.ply"), "{msg}");
+        assert!(!msg.contains("sharpedge-run"), "{msg}");
+        // Errors about other files keep their path.
+        let e = Error::io("in/scan.ply", "cannot open", std::io::Error::other("gone"));
+        assert!(
+            at_destination(e, staging, to)
+                .to_string()
+                .contains("in/scan.ply")
+        );
+    }
 }
