@@ -1,7 +1,7 @@
 #!/bin/sh
 # Regenerates the bundled sample scans with `sharpedge synth` (tests/samples.rs runs these
 # same lines and checks that the committed files are byte for byte what they make).
-# Usage, from the repository root: cargo build --release && PATH=target/release:$PATH samples/make.sh
+# Usage, from the repository root: cargo build --release && PATH=$PWD/target/release:$PATH samples/make.sh
 set -eu
 cd "$(dirname "$0")"
 # A 100-unit box, rotated at random, 20,000 points, noise sigma 0.15 spacings, edges rounded

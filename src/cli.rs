@@ -121,6 +121,11 @@ pub struct SynthArgs {
     /// For --mesh: a mesh edge is sharp when its dihedral angle exceeds this many degrees.
     #[arg(long, default_value_t = 30.0)]
     pub sharp_angle: f64,
+    /// For --mesh with curved regions: levels of Loop subdivision (sharp edges stay creases)
+    /// before sampling, so faceted curved patches are scanned as the smooth surfaces they
+    /// stand for; 0 samples the facets as they are (0..4).
+    #[arg(long, default_value_t = 2)]
+    pub subdivide: u32,
     /// Also write each point's truth (scalar_abnormal, scalar_outlier, scalar_edge_distance)
     /// into the PLY, for inspection.
     #[arg(long)]
@@ -318,6 +323,7 @@ fn synth(cli: &Cli, a: &SynthArgs) -> anyhow::Result<()> {
         angle: a.angle,
         steps: a.steps,
         sharp_angle: a.sharp_angle,
+        subdivide: a.subdivide,
         jitter: a.jitter,
     };
     let scan = sharpedge::synth::generate(&params)?;
@@ -467,7 +473,7 @@ fn bench(_cli: &Cli, a: &BenchArgs) -> anyhow::Result<()> {
         data: a.data.clone().or_else(sharpedge::bench::default_data_dir),
         settings,
     })?;
-    let text = serde_json::to_string_pretty(&report)? + "\n";
+    let text = sharpedge::json::pretty(&report)? + "\n";
     sharpedge::io::write_atomic(&a.out, |w| {
         w.write_all(text.as_bytes())
             .map_err(|e| sharpedge::Error::io(&a.out, "cannot write bench results", e))

@@ -528,10 +528,11 @@ fn write_report(
         failures: &outcome.failures,
         config: settings,
     };
+    let text = crate::json::pretty(&report)
+        .map_err(|e| Error::io(path, "cannot write report", e.into()))?
+        + "\n";
     io::write_atomic(path, |w| {
-        serde_json::to_writer_pretty(&mut *w, &report)
-            .map_err(|e| Error::io(path, "cannot write report", e.into()))?;
-        w.write_all(b"\n")
+        w.write_all(text.as_bytes())
             .map_err(|e| Error::io(path, "cannot write report", e))
     })
 }

@@ -72,10 +72,24 @@ fn fandisk_and_anchor_sharp_features() {
         ("pinion.off", 510, 80, 122),
     ] {
         let Some(path) = cad(file) else { return };
-        let gt = generate(&mesh_params(path, 2_000)).unwrap().ground_truth;
+        // The mesh as it is: the counts of SOURCES.md.
+        let facets = SynthParams {
+            subdivide: 0,
+            ..mesh_params(path.clone(), 2_000)
+        };
+        let gt = generate(&facets).unwrap().ground_truth;
         assert_eq!(gt.edges.len(), edges, "{file}");
         assert_eq!(gt.corners.len(), corners, "{file}");
         assert_eq!(gt.polylines.len(), polylines, "{file}");
+        // Smoothed by two levels of subdivision (the default for a mesh with curved
+        // patches): every sharp edge in four pieces, the same corners and creases.
+        let smooth = generate(&mesh_params(path, 2_000)).unwrap().ground_truth;
+        assert_eq!(smooth.edges.len(), 4 * edges, "{file}");
+        assert_eq!(smooth.corners.len(), corners, "{file}");
+        assert_eq!(smooth.polylines.len(), polylines, "{file}");
+        for (a, b) in gt.corners.iter().zip(&smooth.corners) {
+            assert!(dist(a.position, b.position) < 1e-12, "{file}: corners move");
+        }
         assert_eq!(gt.mesh_stats.boundary_edges, 0, "{file}");
         assert!(!gt.mesh_stats.flipped, "{file}");
         // Corners on a crease (two edges) are real turns, far above the 30° threshold.

@@ -19,7 +19,7 @@
 //! each turn large; a real corner turns much more than the vertices next to it. Vertices where
 //! a single sharp edge ends are polyline ends, not corners.
 
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 
 use super::geom::{V3, angle, cross, dot, norm, normalize, sub, triangle_normal};
 use crate::io::mesh::Mesh;
@@ -125,8 +125,19 @@ pub struct Model {
     pub sharp_index: HashMap<(u32, u32), usize>,
 }
 
-/// Builds the [`Model`] of a mesh.
+/// Builds the [`Model`] of a mesh; an edge is sharp when its normals differ by more than
+/// `opt.sharp_angle`.
 pub fn analyse(mesh: Mesh, opt: &FeatureOptions) -> Model {
+    analyse_with(mesh, opt, None)
+}
+
+/// Like [`analyse`], but when `creases` is given exactly those manifold edges are sharp (a
+/// subdivided mesh keeps its original sharp edges, whatever the angles of their pieces).
+pub fn analyse_with(
+    mesh: Mesh,
+    opt: &FeatureOptions,
+    creases: Option<&HashSet<(u32, u32)>>,
+) -> Model {
     let nt = mesh.triangles.len();
     let verts = &mesh.vertices;
     let tri_pts = |t: usize| mesh.triangles[t].map(|i| verts[i as usize]);
@@ -201,7 +212,11 @@ pub fn analyse(mesh: Mesh, opt: &FeatureOptions) -> Model {
             continue; // a degenerate triangle has no normal to compare
         }
         let theta = angle(n0, n1);
-        if theta <= opt.sharp_angle {
+        let sharp = match creases {
+            Some(c) => c.contains(&key),
+            None => theta > opt.sharp_angle,
+        };
+        if !sharp {
             smooth_adj[t0 as usize].push(t1);
             smooth_adj[t1 as usize].push(t0);
             continue;

@@ -222,9 +222,9 @@ impl GroundTruth {
         }
     }
 
-    /// Pretty JSON.
+    /// Pretty JSON (points and triangles one a line).
     pub fn to_json(&self) -> Result<String> {
-        serde_json::to_string_pretty(self).map_err(|e| Error::Degenerate {
+        crate::json::pretty(self).map_err(|e| Error::Degenerate {
             what: "ground-truth JSON",
             why: e.to_string(),
         })
