@@ -97,6 +97,7 @@ struct RawEdges {
     slab_points: Opt<i64>,
     vertex_margin: Opt<f64>,
     straight_tolerance: Opt<f64>,
+    max_rounding: Opt<f64>,
 }
 
 #[derive(Debug, Default, Deserialize)]
@@ -151,6 +152,7 @@ struct RawSegment {
     corner_ratio: Opt<f64>,
     vertex_gap: Opt<f64>,
     vertex_reach: Opt<f64>,
+    corner_angle: Opt<f64>,
     min_density: Opt<f64>,
     absorb: Opt<f64>,
 }
@@ -626,6 +628,14 @@ impl Checker<'_> {
                 100.0,
                 true,
             )?,
+            corner_angle: self.number(
+                &g.corner_angle,
+                "segment.corner_angle",
+                gd.corner_angle,
+                0.0,
+                90.0,
+                true,
+            )?,
             min_density: self.number(
                 &g.min_density,
                 "segment.min_density",
@@ -666,6 +676,14 @@ impl Checker<'_> {
                 0.0,
                 f64::INFINITY,
                 false,
+            )?,
+            max_rounding: self.number(
+                &e.max_rounding,
+                "edges.max_rounding",
+                ed.max_rounding,
+                0.0,
+                f64::INFINITY,
+                true,
             )?,
         };
         let corners = CornerParams {

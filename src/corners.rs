@@ -50,6 +50,14 @@ pub struct CornerFit {
     pub edges: Vec<usize>,
 }
 
+/// What the corner stage made of one vertex: its corner (the swarm's fit, or where its edges'
+/// end lines meet when the fit failed but they agree), and why the fit failed, if it did.
+#[derive(Debug, Clone, Default)]
+pub struct CornerOutcome {
+    pub corner: Option<CornerFit>,
+    pub failure: Option<String>,
+}
+
 /// Fits every vertex with at least two fitted edges, in parallel, each with its own RNG from
 /// (seed, vertex id).
 pub fn fit_corners(
@@ -59,7 +67,7 @@ pub fn fit_corners(
     params: &CornerParams,
     fit: &FitParams,
     seed: u64,
-) -> Vec<Result<CornerFit, String>> {
+) -> Vec<CornerOutcome> {
     let mut fit = fit.clone();
     // Rectified edge points scatter far less than the raw points: the fit measures their
     // noise itself instead of taking the cloud's. They already stop short of the vertex, so
@@ -80,6 +88,25 @@ pub fn fit_corners(
         .collect()
 }
 
+/// A corner lies on the end lines of all its edges: one farther than this many spacings from
+/// one of them is not where they meet (measured: fitted corners on the synthetic parts lie
+/// within 0.1 spacing; a vertex joining runs that do not end at a common point — a hole's rim
+/// broken in two, a misread short edge — gave corners 5 to 40 spacings off).
+const CORNER_ON_LINES: f64 = 2.0;
+
+/// The line through the (up to six) rectified points of one edge nearest to `near`: where the
+/// edge leaves its vertex.
+fn end_line(points: &[[f64; 3]], near: [f64; 3]) -> Option<([f64; 3], [f64; 3])> {
+    let mut by_distance: Vec<(f64, usize)> = points
+        .iter()
+        .enumerate()
+        .map(|(i, p)| (norm(sub(*p, near)), i))
+        .collect();
+    by_distance.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+    let ids: Vec<usize> = by_distance.iter().take(6).map(|x| x.1).collect();
+    crate::segment::pca_line(points, &ids)
+}
+
 fn fit_vertex(
     segments: &Segments,
     edges: &[Result<EdgeFit, String>],
@@ -88,7 +115,7 @@ fn fit_vertex(
     params: &CornerParams,
     fit: &FitParams,
     rng: &mut SmallRng,
-) -> Result<CornerFit, String> {
+) -> CornerOutcome {
     let vertex = &segments.vertices[v];
     let approx = vertex.position;
     let reach = params.reach * scale.radius;
@@ -108,32 +135,63 @@ fn fit_vertex(
         }
     }
     if sides.len() < 2 {
-        return Err(format!(
-            "corner {v}: {} of its {} edges have enough rectified points near it",
-            sides.len(),
-            vertex.ends.len()
-        ));
+        return CornerOutcome {
+            corner: None,
+            failure: Some(format!(
+                "corner {v}: {} of its {} edges have enough rectified points near it",
+                sides.len(),
+                vertex.ends.len()
+            )),
+        };
     }
+    let lines: Vec<Option<([f64; 3], [f64; 3])>> =
+        sides.iter().map(|s| end_line(s, approx)).collect();
+    // The first edge whose end line misses `p`, and by how much.
+    let off = |p: [f64; 3]| {
+        lines.iter().zip(&ids).find_map(|(l, &k)| {
+            let d = crate::edges::point_line_distance(p, (*l)?);
+            (d > CORNER_ON_LINES * scale.spacing).then_some((k, d / scale.spacing))
+        })
+    };
     let refs: Vec<&[[f64; 3]]> = sides.iter().map(|s| s.as_slice()).collect();
-    let f = fit_corner_3d(&refs, approx, fit, rng).map_err(|e| format!("corner {v}: {e}"))?;
-    if std::env::var("CORNERDBG").is_ok() {
-        eprintln!(
-            "corner {v}: side sizes {:?} used {:?} corner region {} noise {:.4} approx {approx:?} pso {:?}",
-            sides.iter().map(|s| s.len()).collect::<Vec<_>>(),
-            f.sides.iter().map(|s| s.len()).collect::<Vec<_>>(),
-            f.corner_region.len(),
-            f.noise,
-            f.pso.point
-        );
+    let failure = match fit_corner_3d(&refs, approx, fit, rng) {
+        Ok(f) => match off(f.pso.point) {
+            None => {
+                return CornerOutcome {
+                    corner: Some(CornerFit {
+                        vertex: v,
+                        position: f.pso.point,
+                        scheme1: f.scheme1.point,
+                        exact: f.exact.point,
+                        errors: [f.scheme1.error, f.pso.error, f.exact.error],
+                        edges: ids,
+                    }),
+                    failure: None,
+                };
+            }
+            Some((k, d)) => format!(
+                "corner {v}: the fitted corner lies {d:.1} spacings off edge {k}'s end line \
+                 (more than {CORNER_ON_LINES}): its edges do not meet at one point"
+            ),
+        },
+        Err(e) => format!("corner {v}: {e}"),
+    };
+    // The fit failed or does not fit its edges: where their end lines meet, if they do.
+    let known: Vec<([f64; 3], [f64; 3])> = lines.iter().flatten().copied().collect();
+    let corner = nearest_point_to_lines(&known)
+        .filter(|&p| off(p).is_none())
+        .map(|p| CornerFit {
+            vertex: v,
+            position: p,
+            scheme1: p,
+            exact: p,
+            errors: [f64::NAN; 3],
+            edges: ids.clone(),
+        });
+    CornerOutcome {
+        corner,
+        failure: Some(failure),
     }
-    Ok(CornerFit {
-        vertex: v,
-        position: f.pso.point,
-        scheme1: f.scheme1.point,
-        exact: f.exact.point,
-        errors: [f.scheme1.error, f.pso.error, f.exact.error],
-        edges: ids,
-    })
 }
 
 /// The final shape of one edge: its polyline from start to end, ending exactly at its
@@ -210,7 +268,12 @@ pub fn edge_geometry(
                 let mut pts = crate::edges::smooth_polyline(
                     &e.slabs.iter().map(|s| s.corner).collect::<Vec<_>>(),
                     2,
+                    run.closed,
                 );
+                if run.closed && !pts.is_empty() {
+                    // A closed edge ends where it starts.
+                    pts.push(pts[0]);
+                }
                 if let Some(a) = ends[0] {
                     pts.insert(0, corners[a].position);
                 }
@@ -226,21 +289,4 @@ pub fn edge_geometry(
             })
         })
         .collect()
-}
-
-/// Where the fitted edges' lines meet, for a vertex whose corner fit failed: the
-/// least-squares point of the lines.
-pub fn fallback_position(
-    segments: &Segments,
-    edges: &[Result<EdgeFit, String>],
-    v: usize,
-) -> Option<[f64; 3]> {
-    let lines: Vec<([f64; 3], [f64; 3])> = segments.vertices[v]
-        .ends
-        .iter()
-        .filter_map(|&(k, _)| edges[k].as_ref().ok().map(|e| e.line))
-        .collect();
-    (lines.len() >= 2)
-        .then(|| nearest_point_to_lines(&lines))
-        .flatten()
 }

@@ -22,7 +22,12 @@ use rayon::prelude::*;
 use crate::features::Scale;
 use crate::fit::{FitParams, ProfileFit, ProfileKnown, ProfileScratch, fit_profile_2d_zone};
 use crate::neighbours::Grid;
-use crate::segment::{Run, Segments, add, dot, norm, pca_line, sub};
+use crate::polyline::Polyline;
+use crate::segment::{Segments, add, dot, norm, pca_line, sub};
+
+/// Half-width of the window a centre line's tangent is averaged over, in neighbourhood radii:
+/// several slabs or centre-line windows, short against any curve an edge run follows.
+const TANGENT_HALF: f64 = 2.5;
 
 /// Settings of the edge stage (validated by `config`).
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
@@ -37,6 +42,10 @@ pub struct EdgeParams {
     /// An edge whose rectified points stay within this many spacings (RMS) of one line is
     /// reported as a straight line; otherwise as a polyline.
     pub straight_tolerance: f64,
+    /// A run whose faces meet through a rounding of larger radius than this many spacings is
+    /// a fillet of the part, not a sharp edge the scan rounded: it is left out (and reported)
+    /// and its points are not moved.
+    pub max_rounding: f64,
 }
 
 impl Default for EdgeParams {
@@ -46,6 +55,7 @@ impl Default for EdgeParams {
             slab_points: 80,
             vertex_margin: 1.5,
             straight_tolerance: 0.3,
+            max_rounding: 6.0,
         }
     }
 }
@@ -53,7 +63,7 @@ impl Default for EdgeParams {
 /// One slab's fit.
 #[derive(Debug, Clone)]
 pub struct SlabFit {
-    /// Position of the slab's centre along the run's line (`Run::origin`, `Run::direction`).
+    /// Arc length of the slab's centre along the centre line of the pass that fitted it.
     pub t: f64,
     /// The slab's local edge direction (unit).
     pub tangent: [f64; 3],
@@ -164,11 +174,26 @@ struct RunCtx<'a> {
     scale: &'a Scale,
     params: &'a EdgeParams,
     fit: &'a FitParams,
-    t0: f64,
-    t1: f64,
-    /// The run's line, which parametrises the slabs' positions.
-    origin: [f64; 3],
-    direction: [f64; 3],
+    stretch: Stretch,
+}
+
+/// The part of an edge the slabs cover: between two points (the run's ends pulled back from
+/// its vertices), which every pass's centre line maps to its own arc lengths, or a whole
+/// closed curve.
+#[derive(Debug, Clone, Copy)]
+enum Stretch {
+    Open([f64; 3], [f64; 3]),
+    Closed,
+}
+
+impl Stretch {
+    /// The covered arc-length interval on `centre` (a closed curve: all of it).
+    fn on(&self, centre: &Polyline) -> (f64, f64) {
+        match *self {
+            Stretch::Open(a, b) => (centre.project(a).0, centre.project(b).0),
+            Stretch::Closed => (0.0, centre.length()),
+        }
+    }
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -187,20 +212,24 @@ fn fit_run(
 ) -> Result<EdgeFit, String> {
     let run = &segments.runs[k];
     let r = scale.radius;
-    // The usable stretch of the run: its extent, pulled back from vertices.
-    let mut t0 = run.t_range[0];
-    let mut t1 = run.t_range[1];
+    let run_line = run
+        .polyline()
+        .ok_or_else(|| format!("edge {k}: its centre line collapsed to a point"))?;
     let band = params.band * r;
-    for (e, t) in [(0, &mut t0), (1, &mut t1)] {
-        if let Some(v) = run.vertices[e] {
+    let stretch = if run.closed {
+        Stretch::Closed
+    } else {
+        // The usable stretch of the run: its extent, pulled back from vertices.
+        let length = run_line.length();
+        let mut s = [0.0, length];
+        for (e, v) in run.vertices.iter().enumerate() {
+            let Some(v) = *v else { continue };
             let vertex = &segments.vertices[v];
-            let tv = dot(sub(vertex.position, run.origin), run.direction);
             // Our direction away from the vertex, and the other edges' directions away from it.
-            let ours = if e == 0 {
-                run.direction
-            } else {
-                run.direction.map(|x| -x)
-            };
+            let (end, outward) = run.end(e, r);
+            let ours = outward.map(|x| -x);
+            let beyond = dot(sub(vertex.position, end), outward);
+            let sv = if e == 0 { -beyond } else { length + beyond };
             // Where another edge leaves the vertex at an angle θ < 90° to ours, the face between
             // them is only L·tan θ wide at distance L: the band must not reach across it.
             let mut margin = params.vertex_margin * r;
@@ -208,27 +237,23 @@ fn fit_run(
                 if j == k {
                     continue;
                 }
-                let o = &segments.runs[j];
-                let theirs = if ej == 0 {
-                    o.direction
-                } else {
-                    o.direction.map(|x| -x)
-                };
+                let theirs = segments.runs[j].end(ej, r).1.map(|x| -x);
                 let c = dot(ours, theirs).clamp(-1.0, 1.0);
                 if c > 1e-6 {
                     let tan = (1.0 - c * c).sqrt() / c;
                     margin = margin.max(band / tan.max(1e-3) + 0.5 * r);
                 }
             }
-            *t = if e == 0 { tv + margin } else { tv - margin };
+            s[e] = if e == 0 { sv + margin } else { sv - margin };
         }
-    }
-    if t1 - t0 < r {
-        return Err(format!(
-            "edge {k}: too short between its vertices ({:.3})",
-            t1 - t0
-        ));
-    }
+        if s[1] - s[0] < r {
+            return Err(format!(
+                "edge {k}: too short between its vertices ({:.3})",
+                s[1] - s[0]
+            ));
+        }
+        Stretch::Open(run_line.at(s[0]), run_line.at(s[1]))
+    };
     let ctx = RunCtx {
         positions,
         outlier,
@@ -237,24 +262,11 @@ fn fit_run(
         scale,
         params,
         fit,
-        t0,
-        t1,
-        origin: run.origin,
-        direction: run.direction,
+        stretch,
     };
-    // Pass 1 along the run's band axis: where the sharp edge is, roughly, and how wide its
+    // Pass 1 along the run's centre line: where the sharp edge is, roughly, and how wide its
     // abnormal zone is.
-    let band = params.band * r;
-    let first = slab_pass(
-        &ctx,
-        &Centreline::new(run),
-        0.0,
-        None,
-        band,
-        rng,
-        scratch,
-        out,
-    )?;
+    let first = slab_pass(&ctx, &run_line, 0.0, None, band, rng, scratch, out)?;
     // Later passes go along the line (or curve) through the previous pass's rectified edge
     // points — slabs exactly across the edge, the approximate corner on it — and keep the
     // abnormal zone measured from the previous pass's pooled residuals out of the side fits,
@@ -278,11 +290,9 @@ fn fit_run(
         if zone_used > 0.0 && (zone - zone_used).abs() <= scale.spacing {
             break;
         }
-        let (line, _, straight) = edge_line(&pass.slabs, run.direction, scale, params);
-        let centre = if straight {
-            Centreline::straight(line, run.origin, run.direction, t0, t1, r)
-        } else {
-            Centreline::through(&robust_curve(&pass.slabs), run.origin, run.direction)
+        let (line, _, straight) = edge_line(&pass.slabs, scale, params);
+        let Some(centre) = next_centre(&ctx, &pass.slabs, line, straight) else {
+            break;
         };
         let wide = band.max(2.0 * zone + 2.0 * r);
         match slab_pass(&ctx, &centre, zone, None, wide, rng, scratch, out) {
@@ -297,9 +307,11 @@ fn fit_run(
     // A straight edge has the same two faces in every slab: a last pass gives every slab's
     // constrained lines the edge's mean face directions (see `ProfileKnown::slopes`), so a
     // slab's corner only carries the noise of its lines' offsets, not of their slopes.
-    let (line, _, straight) = edge_line(&pass.slabs, run.direction, scale, params);
-    if straight && let Some(faces) = mean_faces(&pass.slabs) {
-        let centre = Centreline::straight(line, run.origin, run.direction, t0, t1, r);
+    let (line, _, straight) = edge_line(&pass.slabs, scale, params);
+    if straight
+        && let Some(faces) = mean_faces(&pass.slabs)
+        && let Some(centre) = next_centre(&ctx, &pass.slabs, line, true)
+    {
         let wide = band.max(2.0 * zone_used + 2.0 * r);
         if let Ok(p) = slab_pass(
             &ctx,
@@ -315,7 +327,7 @@ fn fit_run(
             pass = p;
         }
     }
-    let (line, _, straight) = edge_line(&pass.slabs, run.direction, scale, params);
+    let (line, _, straight) = edge_line(&pass.slabs, scale, params);
     if straight {
         // A slab far off the edge's line saw something else (a neighbouring face, a gap):
         // it must not feed the vertex fits or the rectification.
@@ -341,7 +353,7 @@ fn fit_run(
             });
         }
     }
-    let (line, rms, straight) = edge_line(&pass.slabs, run.direction, scale, params);
+    let (line, rms, straight) = edge_line(&pass.slabs, scale, params);
     let mut angles: Vec<f64> = pass
         .slabs
         .iter()
@@ -363,6 +375,18 @@ fn fit_run(
         rms / scale.spacing,
         if straight { "straight" } else { "curved" }
     );
+    // A fillet is no sharp edge: the zone where the scan leaves the faces is the tangent
+    // length t = R / tan(β/2) of a rounding of radius R between faces at the interior angle β
+    // (a box's 1.5-spacing scanner rounding: t = 1.5; a 30° wedge's: t = 5.6, R still 1.5).
+    let rounding = zone_raw * (0.5 * dihedral_deg.to_radians()).tan();
+    if rounding > params.max_rounding * scale.spacing {
+        return Err(format!(
+            "edge {k}: its faces meet through a rounding of radius {:.1} spacings, more than \
+             edges.max_rounding = {}: a fillet, not a sharp edge; left out",
+            rounding / scale.spacing,
+            params.max_rounding
+        ));
+    }
     Ok(EdgeFit {
         run: k,
         zone: zone_raw,
@@ -378,17 +402,21 @@ fn fit_run(
 
 /// The best line through the slabs' rectified edge points (oriented like `towards`), their
 /// RMS distance to it, and whether the edge is straight. Slab corners farther than 4 robust
-/// sigmas from a first line are left out of the final one. Straight unless a smoothed curve
-/// through the corners fits clearly better than the line (curvature, not noise) and the line's
-/// RMS exceeds `straight_tolerance` spacings.
+/// sigmas from a first line are left out of the final one. Straight unless the line's RMS
+/// exceeds `straight_tolerance` spacings and 1.5 times the points' own scatter about a local
+/// quadratic (curvature, not noise).
 fn edge_line(
     slabs: &[SlabFit],
-    towards: [f64; 3],
     scale: &Scale,
     params: &EdgeParams,
 ) -> (([f64; 3], [f64; 3]), f64, bool) {
     let pts: Vec<[f64; 3]> = slabs.iter().map(|s| s.corner).collect();
     let all: Vec<usize> = (0..pts.len()).collect();
+    // Oriented like the slabs: from the first to the last.
+    let towards = match (pts.first(), pts.last()) {
+        (Some(&a), Some(&b)) => sub(b, a),
+        _ => [1.0, 0.0, 0.0],
+    };
     let orient = |l: ([f64; 3], [f64; 3])| {
         (
             l.0,
@@ -400,13 +428,16 @@ fn edge_line(
         )
     };
     let Some(first) = pca_line(&pts, &all).map(orient) else {
-        return (
-            (pts.first().copied().unwrap_or([0.0; 3]), towards),
-            0.0,
-            true,
-        );
+        let d = norm(towards);
+        let d = if d > 0.0 {
+            towards.map(|x| x / d)
+        } else {
+            [1.0, 0.0, 0.0]
+        };
+        return ((pts.first().copied().unwrap_or([0.0; 3]), d), 0.0, true);
     };
-    let keep = inliers(&pts, |p| point_line_distance(p, first));
+    let d: Vec<f64> = pts.iter().map(|&p| point_line_distance(p, first)).collect();
+    let keep = inliers(&d);
     let line = if keep.len() >= 2 && keep.len() < pts.len() {
         pca_line(&pts, &keep).map(orient).unwrap_or(first)
     } else {
@@ -422,50 +453,148 @@ fn edge_line(
         (s / n.max(1) as f64).sqrt()
     };
     let rms = rms_of(&mut kept.iter().map(|p| point_line_distance(*p, line)));
-    let smooth = smooth_polyline(&kept, 3);
+    // The rectified points' own scatter: the residual of a local quadratic over ±3 points,
+    // which follows any gentle curve, corrected for the 3 of 7 degrees of freedom it uses.
+    let smooth = smooth_polyline(&kept, 3, false);
     let rms_smooth = rms_of(&mut kept.iter().zip(&smooth).map(|(p, q)| norm(sub(*p, *q))));
-    let straight = rms <= params.straight_tolerance * scale.spacing || rms <= 1.5 * rms_smooth;
+    let scatter = rms_smooth * (7.0f64 / 4.0).sqrt();
+    let straight = rms <= params.straight_tolerance * scale.spacing || rms <= 1.5 * scatter;
     (line, rms, straight)
 }
 
-/// Indices of the points whose `dist` is within 4 robust sigmas (1.4826 · median).
-fn inliers(pts: &[[f64; 3]], dist: impl Fn([f64; 3]) -> f64) -> Vec<usize> {
-    let d: Vec<f64> = pts.iter().map(|p| dist(*p)).collect();
-    let mut sorted = d.clone();
+/// Indices of the distances within 4 robust sigmas (1.4826 · median).
+fn inliers(d: &[f64]) -> Vec<usize> {
+    let mut sorted = d.to_vec();
     if sorted.is_empty() {
         return Vec::new();
     }
     let mid = sorted.len() / 2;
     let cut = (4.0 * 1.4826 * *sorted.select_nth_unstable_by(mid, f64::total_cmp).1).max(1e-12);
-    (0..pts.len()).filter(|&i| d[i] <= cut).collect()
+    (0..d.len()).filter(|&i| d[i] <= cut).collect()
 }
 
-/// Moving average over ±`half` neighbours (shorter windows at the ends).
-pub fn smooth_polyline(pts: &[[f64; 3]], half: usize) -> Vec<[f64; 3]> {
-    (0..pts.len())
+/// Local quadratic regression (a Savitzky–Golay filter on an uneven parameter) over ±`half`
+/// neighbours: each point is replaced by the value at its own parameter of the quadratic
+/// (per coordinate) fitted to its window; the parameter is the cumulative chord length.
+/// A quadratic follows a circular arc to third order, so a gently curving edge is neither
+/// shrunk towards its centre of curvature (a moving average over ±3 slabs pulls an arc of
+/// radius R in by about 2Δ²/R) nor shortened at its ends (a shortened moving-average window
+/// at the first point lands 1.5 slabs along the curve, which once made every long arc look
+/// as scattered as a straight edge's noise). Windows are shifted, not shortened, at the ends;
+/// fewer than four points in all fall back to a local line, fewer than two to the points. A
+/// closed polyline's windows wrap round.
+pub fn smooth_polyline(pts: &[[f64; 3]], half: usize, closed: bool) -> Vec<[f64; 3]> {
+    let n = pts.len();
+    if n < 2 {
+        return pts.to_vec();
+    }
+    let m = (2 * half + 1).min(n);
+    let degree = if m >= 4 { 2 } else { 1 };
+    if closed && n > m {
+        // Windows wrap round; each is laid out in order with its own chord lengths.
+        let mut win: Vec<[f64; 3]> = Vec::with_capacity(m);
+        let mut t: Vec<f64> = Vec::with_capacity(m);
+        return (0..n)
+            .map(|i| {
+                win.clear();
+                t.clear();
+                for j in 0..m {
+                    let p = pts[(i + n + j - half) % n];
+                    let step = win.last().map_or(0.0, |&q| norm(sub(p, q)));
+                    t.push(t.last().map_or(0.0, |&x| x + step));
+                    win.push(p);
+                }
+                local_poly_at(&win, &t, t[half], degree).unwrap_or(pts[i])
+            })
+            .collect();
+    }
+    let mut t = Vec::with_capacity(n);
+    let mut acc = 0.0;
+    t.push(0.0);
+    for w in pts.windows(2) {
+        acc += norm(sub(w[1], w[0]));
+        t.push(acc);
+    }
+    (0..n)
         .map(|i| {
-            let lo = i.saturating_sub(half);
-            let hi = (i + half + 1).min(pts.len());
-            let mut s = [0.0; 3];
-            for p in &pts[lo..hi] {
-                s = add(s, *p);
-            }
-            s.map(|x| x / (hi - lo) as f64)
+            let lo = i.saturating_sub(half).min(n - m);
+            let window = lo..lo + m;
+            local_poly_at(&pts[window.clone()], &t[window], t[i], degree).unwrap_or(pts[i])
         })
         .collect()
 }
 
+/// Least-squares polynomial of `degree` (1 or 2) through `pts` against the parameter `t`,
+/// evaluated at `at`; `None` when the parameters do not determine it (repeated values).
+fn local_poly_at(pts: &[[f64; 3]], t: &[f64], at: f64, degree: usize) -> Option<[f64; 3]> {
+    // Centred and scaled at `at`, so the constant term is the answer and the normal
+    // equations stay well conditioned whatever the units.
+    let scale = t
+        .iter()
+        .map(|&x| (x - at).abs())
+        .fold(0.0, f64::max)
+        .max(f64::MIN_POSITIVE);
+    let k = degree + 1;
+    let mut a = [[0.0f64; 3]; 3];
+    let mut b = [[0.0f64; 3]; 3];
+    for (p, &x) in pts.iter().zip(t) {
+        let u = (x - at) / scale;
+        let basis = [1.0, u, u * u];
+        for r in 0..k {
+            for c in 0..k {
+                a[r][c] += basis[r] * basis[c];
+            }
+            for d in 0..3 {
+                b[r][d] += basis[r] * p[d];
+            }
+        }
+    }
+    let m = nalgebra::DMatrix::from_fn(k, k, |r, c| a[r][c]);
+    let chol = nalgebra::linalg::Cholesky::new(m)?;
+    let mut out = [0.0; 3];
+    for (d, o) in out.iter_mut().enumerate() {
+        let rhs = nalgebra::DVector::from_fn(k, |r, _| b[r][d]);
+        let x = chol.solve(&rhs);
+        if !x[0].is_finite() {
+            return None;
+        }
+        *o = x[0];
+    }
+    Some(out)
+}
+
 /// The slab corners without the ones far off their smoothed neighbours, smoothed: the centre
 /// line of a curving edge for the next pass.
-fn robust_curve(slabs: &[SlabFit]) -> Vec<[f64; 3]> {
+fn robust_curve(slabs: &[SlabFit], closed: bool) -> Vec<[f64; 3]> {
     let pts: Vec<[f64; 3]> = slabs.iter().map(|s| s.corner).collect();
-    let smooth = smooth_polyline(&pts, 3);
-    let keep = inliers(&pts, |p| {
-        let i = pts.iter().position(|q| *q == p).unwrap_or(0);
-        norm(sub(p, smooth[i]))
-    });
+    let smooth = smooth_polyline(&pts, 3, closed);
+    let d: Vec<f64> = pts
+        .iter()
+        .zip(&smooth)
+        .map(|(p, q)| norm(sub(*p, *q)))
+        .collect();
+    let keep = inliers(&d);
     let kept: Vec<[f64; 3]> = keep.iter().map(|&i| pts[i]).collect();
-    smooth_polyline(&kept, 3)
+    smooth_polyline(&kept, 3, closed)
+}
+
+/// The next pass's centre line: the edge's line between the stretch's ends when straight,
+/// otherwise the robust curve through the slab corners.
+fn next_centre(
+    ctx: &RunCtx,
+    slabs: &[SlabFit],
+    line: ([f64; 3], [f64; 3]),
+    straight: bool,
+) -> Option<Polyline> {
+    match ctx.stretch {
+        Stretch::Open(a, b) if straight => {
+            let (o, d) = line;
+            let on = |p: [f64; 3]| add(o, d.map(|x| x * dot(sub(p, o), d)));
+            Polyline::new(&[on(a), on(b)], false)
+        }
+        Stretch::Open(..) => Polyline::new(&robust_curve(slabs, false), false),
+        Stretch::Closed => Polyline::new(&robust_curve(slabs, true), true),
+    }
 }
 
 /// Radius of the abnormal zone around the corner, from the pooled residuals of every slab of
@@ -552,7 +681,7 @@ fn abnormal_zone(res: &[(f64, f64, bool)], scale: &Scale, band: f64) -> f64 {
 #[allow(clippy::too_many_arguments)]
 fn slab_pass(
     ctx: &RunCtx,
-    centre: &Centreline,
+    centre: &Polyline,
     zone: f64,
     faces: Option<[[f64; 3]; 2]>,
     band: f64,
@@ -561,30 +690,34 @@ fn slab_pass(
     out: &mut ProfileFit,
 ) -> Result<Pass, String> {
     let (k, scale, params) = (ctx.k, ctx.scale, ctx.params);
-    let (t0, t1) = (ctx.t0, ctx.t1);
-    // Band points: within `band` of the centre line, inside the usable stretch.
-    let mut ids: Vec<u32> = Vec::new();
-    for w in centre.points.windows(2) {
-        ctx.grid
-            .for_each_near_segment(w[0], w[1], band, |i| ids.push(i));
+    let (t0, t1) = ctx.stretch.on(centre);
+    if t1 - t0 <= 0.0 {
+        return Err(format!("edge {k}: its centre line does not cover the edge"));
     }
-    if centre.points.len() == 1 {
+    let closed = matches!(ctx.stretch, Stretch::Closed);
+    // Band points: within `band` of the centre line, each at the arc length of its nearest
+    // point on it (among the segments whose band found it), inside the usable stretch.
+    let mut hits: Vec<(u32, u32)> = Vec::new();
+    for seg in 0..centre.segments() {
+        let (a, b) = centre.segment(seg);
         ctx.grid
-            .for_each_near_segment(centre.points[0], centre.points[0], band, |i| ids.push(i));
+            .for_each_near_segment(a, b, band, |i| hits.push((i, seg as u32)));
     }
-    ids.sort_unstable();
-    ids.dedup();
-    let mut band_pts: Vec<(f64, u32)> = ids
-        .into_iter()
-        .filter(|&i| !ctx.outlier[i as usize])
-        .map(|i| {
-            (
-                dot(sub(ctx.positions[i as usize], ctx.origin), ctx.direction),
-                i,
-            )
-        })
-        .filter(|&(t, _)| t >= t0 && t <= t1)
-        .collect();
+    hits.sort_unstable();
+    let mut band_pts: Vec<(f64, u32)> = Vec::new();
+    let mut segs: Vec<usize> = Vec::new();
+    for group in hits.chunk_by(|x, y| x.0 == y.0) {
+        let i = group[0].0;
+        if ctx.outlier[i as usize] {
+            continue;
+        }
+        segs.clear();
+        segs.extend(group.iter().map(|g| g.1 as usize));
+        let (t, _) = centre.project_among(ctx.positions[i as usize], &segs);
+        if t >= t0 && t <= t1 {
+            band_pts.push((t, i));
+        }
+    }
     band_pts.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
     if band_pts.len() < 2 * params.slab_points.min(20) {
         return Err(format!(
@@ -597,8 +730,11 @@ fn slab_pass(
     let thickness = (params.slab_points as f64 / density)
         .max(0.5 * scale.spacing)
         .min(t1 - t0);
-    let nslab = ((t1 - t0) / thickness).floor().max(1.0) as usize;
+    let nslab = ((t1 - t0) / thickness)
+        .floor()
+        .max(if closed { 3.0 } else { 1.0 }) as usize;
     let thickness = (t1 - t0) / nslab as f64;
+    let half = TANGENT_HALF * scale.radius;
     let mut pass = Pass {
         slabs: Vec::with_capacity(nslab),
         failed: 0,
@@ -615,7 +751,7 @@ fn slab_pass(
         let slab = &band_pts[start..end];
         start = end;
         let tc = 0.5 * (ta + tb);
-        let (c, tangent) = centre.at(tc);
+        let (c, tangent) = (centre.at(tc), centre.tangent(tc, half));
         let (e1, e2) = perpendicular_basis(tangent);
         profile.clear();
         members.clear();
@@ -773,121 +909,4 @@ pub fn perpendicular_basis(d: [f64; 3]) -> ([f64; 3], [f64; 3]) {
         d[0] * e1[1] - d[1] * e1[0],
     ];
     (e1, e2)
-}
-
-/// A run's centre line as a function of the run's line parameter t: position and local
-/// tangent, for gently curving runs as well as straight ones.
-struct Centreline {
-    points: Vec<[f64; 3]>,
-    ts: Vec<f64>,
-    origin: [f64; 3],
-    direction: [f64; 3],
-}
-
-impl Centreline {
-    fn new(run: &Run) -> Self {
-        Self::through(&run.centreline, run.origin, run.direction)
-    }
-
-    /// Through `points` (ordered along the run), parametrised by the run's line.
-    fn through(points: &[[f64; 3]], origin: [f64; 3], direction: [f64; 3]) -> Self {
-        let mut points = points.to_vec();
-        if points.is_empty() {
-            points.push(origin);
-        }
-        let ts = points
-            .iter()
-            .map(|p| dot(sub(*p, origin), direction))
-            .collect();
-        Centreline {
-            points,
-            ts,
-            origin,
-            direction,
-        }
-    }
-
-    /// A straight centre line along `line` from the run's t0 to t1, sampled every `step`.
-    fn straight(
-        line: ([f64; 3], [f64; 3]),
-        origin: [f64; 3],
-        direction: [f64; 3],
-        t0: f64,
-        t1: f64,
-        step: f64,
-    ) -> Self {
-        let n = (((t1 - t0) / step).ceil() as usize).clamp(1, 100_000);
-        let c = dot(line.1, direction);
-        let at = |t: f64| {
-            // The point of `line` whose position along the run's line is t.
-            let s = if c.abs() > 1e-9 {
-                (t - dot(sub(line.0, origin), direction)) / c
-            } else {
-                0.0
-            };
-            add(line.0, line.1.map(|x| x * s))
-        };
-        let points: Vec<[f64; 3]> = (0..=n)
-            .map(|i| at(t0 + (t1 - t0) * i as f64 / n as f64))
-            .collect();
-        let ts = points
-            .iter()
-            .map(|p| dot(sub(*p, origin), direction))
-            .collect();
-        Centreline {
-            points,
-            ts,
-            origin,
-            direction: line.1,
-        }
-    }
-
-    /// Position (interpolated) and tangent (from the centre-line points within two windows)
-    /// at parameter t; straight beyond the ends.
-    fn at(&self, t: f64) -> ([f64; 3], [f64; 3]) {
-        if self.points.len() < 3 {
-            return (
-                add(self.origin, self.direction.map(|x| x * t)),
-                self.direction,
-            );
-        }
-        let j = self
-            .ts
-            .partition_point(|&x| x < t)
-            .clamp(1, self.ts.len() - 1);
-        let (ta, tb) = (self.ts[j - 1], self.ts[j]);
-        let u = if tb > ta {
-            ((t - ta) / (tb - ta)).clamp(0.0, 1.0)
-        } else {
-            0.0
-        };
-        let (a, b) = (self.points[j - 1], self.points[j]);
-        let mut p = add(a, sub(b, a).map(|x| x * u));
-        if t < self.ts[0] || t > self.ts[self.ts.len() - 1] {
-            // Beyond the end samples: continue along the run's line from the nearest sample.
-            let (e, te) = if t < self.ts[0] {
-                (self.points[0], self.ts[0])
-            } else {
-                (
-                    self.points[self.points.len() - 1],
-                    self.ts[self.ts.len() - 1],
-                )
-            };
-            p = add(e, self.direction.map(|x| x * (t - te)));
-        }
-        let lo = j.saturating_sub(3);
-        let hi = (j + 3).min(self.points.len());
-        let ids: Vec<usize> = (lo..hi).collect();
-        let tangent = match pca_line(&self.points, &ids) {
-            Some((_, d)) if ids.len() >= 3 => {
-                if dot(d, self.direction) < 0.0 {
-                    d.map(|x| -x)
-                } else {
-                    d
-                }
-            }
-            _ => self.direction,
-        };
-        (p, tangent)
-    }
 }

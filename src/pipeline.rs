@@ -221,36 +221,15 @@ pub fn process(cloud: Cloud, settings: &Settings, clock: &mut impl LapClock) -> 
             Ok(_) => {}
         }
     }
-    // Reported corners: the fitted ones, then the vertices whose fit failed at the point
-    // their edges' lines meet (marked by an absent error).
+    // Reported corners: the fitted ones, and where the fit failed but the edges' end lines
+    // meet (marked by an absent error).
     let mut corner_list: Vec<CornerFit> = Vec::new();
     let mut corner_of_vertex: Vec<Option<usize>> = vec![None; segments.vertices.len()];
     for (v, c) in corner_fits.into_iter().enumerate() {
-        match c {
-            Ok(c) => {
-                corner_of_vertex[v] = Some(corner_list.len());
-                corner_list.push(c);
-            }
-            Err(e) => {
-                failures.push(e);
-                if let Some(p) = corners::fallback_position(&segments, &fits, v) {
-                    corner_of_vertex[v] = Some(corner_list.len());
-                    let edges: Vec<usize> = segments.vertices[v]
-                        .ends
-                        .iter()
-                        .map(|e| e.0)
-                        .filter(|&k| fits[k].is_ok())
-                        .collect();
-                    corner_list.push(CornerFit {
-                        vertex: v,
-                        position: p,
-                        scheme1: p,
-                        exact: p,
-                        errors: [f64::NAN; 3],
-                        edges,
-                    });
-                }
-            }
+        failures.extend(c.failure);
+        if let Some(c) = c.corner {
+            corner_of_vertex[v] = Some(corner_list.len());
+            corner_list.push(c);
         }
     }
     let geometry = corners::edge_geometry(&segments, &fits, &corner_list, &corner_of_vertex);

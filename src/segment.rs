@@ -2,9 +2,9 @@
 //! meet.
 //!
 //! Inputs: positions, `Features` (candidate mask, edge direction and normal-tensor scores),
-//! `Scale`, `SegmentParams`. Output: `Segments` — runs (their candidate points and a centre
-//! line or polyline), vertices (an approximate position and the run ends that meet there),
-//! and a per-point run label.
+//! `Scale`, `SegmentParams`. Output: `Segments` — runs (their candidate points and an ordered
+//! centre line, open or closed), vertices (an approximate position and the run ends that
+//! meet there), and a per-point run label.
 //!
 //! The propagation is the paper's §2.1 carried to 3D point bands: a run starts at the most
 //! edge-like candidate, fits a line to the candidates around it, and extends step by step
@@ -12,13 +12,21 @@
 //! whose own edge direction agrees. It stops where no such candidates are left — at a corner
 //! the candidates ahead belong to other edges and their directions disagree, or are
 //! corner-like — or where the local tangent turns faster than a gently curving edge can.
-//! Runs whose ends face each other across a small gap are merged; runs whose extended lines
-//! pass close to each other near their ends meet at a vertex.
+//! The steps' fronts give the run's path; its candidates, binned by arc length along that
+//! path, give the centre line, so a run follows a curving edge (a fillet's outline, a hole's
+//! rim) and may close on itself.
+//!
+//! Then, in order: straight runs that overlap or continue each other along one line are
+//! merged (noise breaks a band into pieces); run ends that face each other across a small gap
+//! are joined; runs too sparse to be an edge's band are dropped; run ends whose end tangents
+//! pass close to each other meet at a vertex. A vertex where exactly two runs meet with a turn
+//! below `corner_angle` is no corner: the two runs are one edge bending there, and are joined.
 
 use rayon::prelude::*;
 
 use crate::features::{Features, Scale};
 use crate::neighbours::Grid;
+use crate::polyline::Polyline;
 
 /// Settings of the segment stage (validated by `config`).
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
@@ -26,8 +34,8 @@ pub struct SegmentParams {
     /// A candidate joins a run when its edge direction is within this angle of the run's
     /// (degrees).
     pub direction_tolerance: f64,
-    /// A run stops when its local direction turns by more than this between two consecutive
-    /// windows (degrees); gentle curves turn less per window and are followed.
+    /// A run stops when its local direction turns by more than this per neighbourhood radius
+    /// it advances (degrees); gentle curves turn less and are followed.
     pub turn_angle: f64,
     /// Half-width of the tube around a run's line that candidates must lie in, in
     /// neighbourhood radii.
@@ -41,6 +49,9 @@ pub struct SegmentParams {
     /// no further than `vertex_reach` radii beyond the ends.
     pub vertex_gap: f64,
     pub vertex_reach: f64,
+    /// Two runs meeting end to end with a turn below this angle (degrees) are one edge that
+    /// bends there, not two edges at a corner.
+    pub corner_angle: f64,
     /// Agreeing candidates within this many radii of an accepted run are part of its band.
     pub absorb: f64,
     /// Runs with fewer candidates per unit length than this share of the median run are
@@ -58,6 +69,7 @@ impl Default for SegmentParams {
             corner_ratio: 0.3,
             vertex_gap: 1.0,
             vertex_reach: 5.0,
+            corner_angle: 30.0,
             min_density: 0.3,
             absorb: 3.0,
         }
@@ -76,19 +88,98 @@ pub struct Run {
     pub origin: [f64; 3],
     /// Unit direction of the run's best line.
     pub direction: [f64; 3],
-    /// Extent of the run's points along `direction`, relative to `origin`.
-    pub t_range: [f64; 2],
-    /// Centre-line samples from one end to the other (window centroids); a straight run has
-    /// the same shape as its line, a curving run follows the curve.
+    /// Centre line from one end to the other: centroids of the run's candidates in windows
+    /// one radius long along the run, its first and last points at the run's extreme
+    /// candidates. It follows a curving run; a closed run's last point connects to its first.
     pub centreline: Vec<[f64; 3]>,
-    /// The vertex at each end (`[start, end]` in the order of `t_range`), if any.
+    /// The run goes round a closed curve (a hole's rim): it has no ends and no vertices.
+    pub closed: bool,
+    /// The vertex at each end (`[start, end]` of the centre line), if any.
     pub vertices: [Option<usize>; 2],
+}
+
+impl Run {
+    /// The centre line as an arc-length parametrised polyline; `None` only for a run whose
+    /// centre line collapsed to a point (never produced by `segment`).
+    pub fn polyline(&self) -> Option<Polyline> {
+        Polyline::new(&self.centreline, self.closed)
+    }
+
+    /// Length along the centre line.
+    pub fn length(&self) -> f64 {
+        self.polyline().map_or(0.0, |p| p.length())
+    }
+
+    /// End point and outward unit tangent of end `e` (0 = start, 1 = end). A straight run
+    /// (its centre line within half a radius `r` of its best line) ends on that line, which all
+    /// its points determine; a curving run by its tangent over its last three radii.
+    pub fn end(&self, e: usize, r: f64) -> ([f64; 3], [f64; 3]) {
+        let line = self.polyline().filter(|_| !self.is_straight(0.5 * r));
+        match line {
+            Some(p) => {
+                let (point, chord) = p.end(e, 3.0 * r);
+                // The chord of the last radii lags behind the curve by half their arc (11° on a
+                // rim eight radii across): take the tangent of a quadratic through them.
+                let cl = &self.centreline;
+                let near: Vec<usize> = (0..cl.len())
+                    .filter(|&i| norm(sub(cl[i], point)) <= 4.0 * r)
+                    .collect();
+                let tangent = pca_line(cl, &near)
+                    .and_then(|(c, d)| {
+                        let d = if dot(d, chord) < 0.0 { neg(d) } else { d };
+                        quadratic_end(cl, &near, c, d, dot(sub(point, c), d))
+                    })
+                    .map_or(chord, |(_, t)| t);
+                (point, tangent)
+            }
+            None => {
+                let p = if e == 0 {
+                    self.centreline.first()
+                } else {
+                    self.centreline.last()
+                }
+                .copied()
+                .unwrap_or(self.origin);
+                let v = sub(p, self.origin);
+                let on = add(
+                    self.origin,
+                    self.direction.map(|c| c * dot(v, self.direction)),
+                );
+                let out = if e == 0 {
+                    neg(self.direction)
+                } else {
+                    self.direction
+                };
+                // The best line is unoriented: point it out of this end.
+                let other = if e == 0 {
+                    self.centreline.last()
+                } else {
+                    self.centreline.first()
+                }
+                .copied()
+                .unwrap_or(self.origin);
+                if dot(sub(p, other), out) < 0.0 {
+                    (on, neg(out))
+                } else {
+                    (on, out)
+                }
+            }
+        }
+    }
+
+    /// Whether the centre line stays within `tol` of the run's best line.
+    fn is_straight(&self, tol: f64) -> bool {
+        self.centreline.iter().all(|&p| {
+            let v = sub(p, self.origin);
+            norm(sub(v, self.direction.map(|c| c * dot(v, self.direction)))) <= tol
+        })
+    }
 }
 
 /// Where two or more runs meet.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Vertex {
-    /// Least-squares point nearest to the lines of the meeting runs.
+    /// Least-squares point nearest to the end tangent lines of the meeting runs.
     pub position: [f64; 3],
     /// (run id, end: 0 = start, 1 = end).
     pub ends: Vec<(usize, usize)>,
@@ -150,7 +241,6 @@ pub fn segment(
     });
 
     let cos_dir = params.direction_tolerance.to_radians().cos();
-    let cos_turn = params.turn_angle.to_radians().cos();
     let tube = params.tube * r;
     let mut taken = vec![false; cand.len()];
     let mut runs: Vec<Run> = Vec::new();
@@ -165,14 +255,22 @@ pub fn segment(
             r,
             tube,
             cos_dir,
-            cos_turn,
+            max_turn: params.turn_angle.to_radians(),
         };
-        let Some(mut members) = grower.grow(seed as usize, &taken) else {
+        let Some(grown) = grower.grow(seed as usize, &taken) else {
             taken[seed as usize] = true;
             continue;
         };
+        let mut members = grown.members;
         members.sort_unstable();
-        let Some(run) = make_run(&cand_pos, &members, r, params.min_length * r) else {
+        let Some(run) = make_run(
+            &cand_pos,
+            &members,
+            &grown.path,
+            grown.closed,
+            r,
+            params.min_length * r,
+        ) else {
             // A rejected run (too short: a stray seed on a flank or in a corner region) must
             // not punch a hole in the band a better seed will grow along; only its seed retires.
             taken[seed as usize] = true;
@@ -181,35 +279,43 @@ pub fn segment(
         for &m in &members {
             taken[m] = true;
         }
-        {
-            // The run's band is wider than its tube where the edge is rounded or noisy: the
-            // agreeing candidates on its flanks belong to it too and must not seed a parallel
-            // shadow run.
-            let reach = params.absorb * r;
-            let cl = &run.centreline;
-            for w in 0..cl.len().max(1) {
-                let (a, b) = (cl[w.min(cl.len() - 1)], cl[(w + 1).min(cl.len() - 1)]);
-                grid.for_each_near_segment(a, b, reach, |j| {
-                    let j = j as usize;
-                    // Only beside the run, never beyond its ends: there lie corner regions and
-                    // the other edges' bands.
-                    let t = dot(sub(cand_pos[j], run.origin), run.direction);
-                    if t >= run.t_range[0]
-                        && t <= run.t_range[1]
-                        && dot(dirs[j], run.direction).abs() >= cos_dir
-                    {
-                        taken[j] = true;
-                    }
-                });
-            }
-            let mut ids: Vec<u32> = members.iter().map(|&m| cand[m]).collect();
-            ids.sort_unstable();
-            runs.push(Run { points: ids, ..run });
-        }
+        absorb(
+            &run,
+            &grid,
+            &cand_pos,
+            &dirs,
+            r,
+            params.absorb * r,
+            cos_dir,
+            &mut taken,
+        );
+        let mut ids: Vec<u32> = members.iter().map(|&m| cand[m]).collect();
+        ids.sort_unstable();
+        runs.push(Run { points: ids, ..run });
     }
+    let grown = runs.len();
     let runs = merge_collinear(runs, positions, r, params);
+    let merged = runs.len();
+    let joins = continuation_joins(&runs, r, params);
+    let runs = chain(runs, &joins, positions);
+    let chained = runs.len();
     let runs = drop_sparse(runs, params.min_density);
+    tracing::debug!(
+        "segment: {grown} runs grown, {merged} after merging straight pieces, {chained} after \
+         {} end-to-end joins, {} dense enough",
+        joins.len(),
+        runs.len()
+    );
     let (runs, vertices) = find_vertices(runs, r, params);
+    // Two runs meeting with a gentle turn are one bending edge: join them, then group the
+    // remaining ends again (their geometry is unchanged by the join).
+    let smooth = smooth_vertices(&runs, &vertices, r, params);
+    let (runs, vertices) = if smooth.is_empty() {
+        (runs, vertices)
+    } else {
+        let runs = chain(runs, &smooth, positions);
+        find_vertices(runs, r, params)
+    };
     for (k, run) in runs.iter().enumerate() {
         for &p in &run.points {
             label[p as usize] = k as u32;
@@ -222,6 +328,104 @@ pub fn segment(
     }
 }
 
+/// Marks the agreeing candidates on an accepted run's flanks as taken: the run's band is
+/// wider than its tube where the edge is rounded or noisy, and they must not seed a parallel
+/// shadow run. Only beside the run, never beyond its ends: there lie corner regions and the
+/// other edges' bands.
+#[allow(clippy::too_many_arguments)]
+fn absorb(
+    run: &Run,
+    grid: &Grid,
+    cand_pos: &[[f64; 3]],
+    dirs: &[[f64; 3]],
+    r: f64,
+    reach: f64,
+    cos_dir: f64,
+    taken: &mut [bool],
+) {
+    let Some(line) = run.polyline() else { return };
+    // Beyond an end: ahead of the end point along its outward tangent (any segment's capsule
+    // near an end reaches past it).
+    let ends = (!run.closed).then(|| [run.end(0, r), run.end(1, r)]);
+    for k in 0..line.segments() {
+        let (a, b) = line.segment(k);
+        let d = sub(b, a);
+        let d = d.map(|c| c / norm(d));
+        grid.for_each_near_segment(a, b, reach, |j| {
+            let j = j as usize;
+            let beyond = ends.is_some_and(|ends| {
+                ends.iter()
+                    .any(|&(p, out)| dot(sub(cand_pos[j], p), out) > 0.0)
+            });
+            if !beyond && dot(dirs[j], d).abs() >= cos_dir {
+                taken[j] = true;
+            }
+        });
+    }
+}
+
+/// What one growth gives: the members (candidate indices), the path of the growth fronts
+/// from one end to the other, and whether the path closed on itself.
+struct Grown {
+    members: Vec<usize>,
+    path: Vec<[f64; 3]>,
+    closed: bool,
+}
+
+/// Steps in the window whose direction decides a turn and whose curve the growth follows.
+const LONG_WINDOW: usize = 8;
+
+/// Point and unit tangent at `u` of the quadratic `p(u) = c + u·d + (a + b·u + k·u²)` fitted
+/// (least squares, per perpendicular axis) to the points `ids`, `u` their position along
+/// `d` from `c`; `None` when the points do not spread along `d` enough to fit it.
+fn quadratic_end(
+    pos: &[[f64; 3]],
+    ids: &[usize],
+    c: [f64; 3],
+    d: [f64; 3],
+    u: f64,
+) -> Option<([f64; 3], [f64; 3])> {
+    // Centre-line samples are averages already; raw candidates need a few more to steady
+    // the fit.
+    let min_points = 4;
+    let (e1, e2) = crate::edges::perpendicular_basis(d);
+    let scale = ids
+        .iter()
+        .map(|&i| dot(sub(pos[i], c), d).abs())
+        .fold(0.0, f64::max);
+    if scale.is_nan() || scale <= 0.0 || ids.len() < min_points {
+        return None;
+    }
+    let mut m = nalgebra::Matrix3::<f64>::zeros();
+    let mut b = [nalgebra::Vector3::<f64>::zeros(); 2];
+    for &i in ids {
+        let v = sub(pos[i], c);
+        let x = dot(v, d) / scale;
+        let basis = nalgebra::Vector3::new(1.0, x, x * x);
+        m += basis * basis.transpose();
+        b[0] += basis * dot(v, e1);
+        b[1] += basis * dot(v, e2);
+    }
+    let chol = nalgebra::linalg::Cholesky::new(m)?;
+    let (f1, f2) = (chol.solve(&b[0]), chol.solve(&b[1]));
+    let x = u / scale;
+    let at = |f: &nalgebra::Vector3<f64>| f[0] + f[1] * x + f[2] * x * x;
+    let slope = |f: &nalgebra::Vector3<f64>| (f[1] + 2.0 * f[2] * x) / scale;
+    let p = add(
+        c,
+        add(
+            d.map(|k| k * u),
+            add(e1.map(|k| k * at(&f1)), e2.map(|k| k * at(&f2))),
+        ),
+    );
+    let t = add(
+        d,
+        add(e1.map(|k| k * slope(&f1)), e2.map(|k| k * slope(&f2))),
+    );
+    let l = norm(t);
+    (l.is_finite() && p.iter().all(|v| v.is_finite())).then(|| (p, t.map(|k| k / l)))
+}
+
 struct Grower<'a> {
     pos: &'a [[f64; 3]],
     dirs: &'a [[f64; 3]],
@@ -229,13 +433,14 @@ struct Grower<'a> {
     r: f64,
     tube: f64,
     cos_dir: f64,
-    cos_turn: f64,
+    /// Largest turn of the tangent per radius advanced (radians).
+    max_turn: f64,
 }
 
 impl Grower<'_> {
-    /// Candidate indices of the run grown from `seed`, or `None` when the seed has too few
-    /// agreeing neighbours to define a direction.
-    fn grow(&self, seed: usize, taken: &[bool]) -> Option<Vec<usize>> {
+    /// The run grown from `seed`, or `None` when the seed has too few agreeing neighbours to
+    /// define a direction.
+    fn grow(&self, seed: usize, taken: &[bool]) -> Option<Grown> {
         let d_seed = self.dirs[seed];
         if norm(d_seed) < 0.5 {
             return None;
@@ -258,14 +463,30 @@ impl Grower<'_> {
         }
         let mut members = start.clone();
         let mut is_member: std::collections::HashSet<usize> = start.iter().copied().collect();
-        for sign in [1.0, -1.0] {
+        // The fronts of each direction's steps, in order away from the seed.
+        let mut fronts: [Vec<[f64; 3]>; 2] = [Vec::new(), Vec::new()];
+        // Where the other direction will start: a growth that comes round to it has closed
+        // a loop (a hole's rim) and must stop before it laps the run's own flanks.
+        let back = start
+            .iter()
+            .map(|&m| dot(sub(self.pos[m], o), d0))
+            .fold(0.0, f64::min);
+        let loop_start = add(o, d0.map(|c| c * back));
+        let mut closed = false;
+        for (side, sign) in [1.0, -1.0].into_iter().enumerate() {
+            if closed {
+                break;
+            }
+            let mut travelled = 0.0;
             let mut dir = d0.map(|c| c * sign);
+            let mut steady = dir;
             let t_end = start
                 .iter()
                 .map(|&m| dot(sub(self.pos[m], o), dir))
                 .fold(0.0, f64::max);
             let mut front = add(o, dir.map(|c| c * t_end));
-            // The last few steps: the window that gives the local tangent.
+            fronts[side].push(front);
+            // The last steps: the window that gives the local direction and curve.
             let mut recent: std::collections::VecDeque<Vec<usize>> = [start.clone()].into();
             loop {
                 // Look one radius ahead; bridge a hole in the band (noise can thin it) by
@@ -295,76 +516,151 @@ impl Grower<'_> {
                 step.sort_unstable();
                 step.dedup();
                 if step.len() < 2 {
+                    tracing::trace!("run growth: no candidates ahead of {front:?}");
                     break;
                 }
+                // The window's best line (its chord) gives a steady direction to tell a turn
+                // from noise. The front and the tangent there come from a quadratic through the
+                // window: the chord lags behind a curving edge by half the window's arc (22° on
+                // a rim five radii across), and a line along it would leave its tube.
                 let window: Vec<usize> = recent.iter().flatten().chain(&step).copied().collect();
-                let Some((wc, wd)) = pca_line(self.pos, &window) else {
+                let Some((wc, wl)) = pca_line(self.pos, &window) else {
                     break;
                 };
-                let wd = if dot(wd, dir) < 0.0 { neg(wd) } else { wd };
-                // The tangent turned too fast for a gently curving edge: a corner.
-                if dot(wd, dir) < self.cos_turn {
+                let wl = if dot(wl, steady) < 0.0 { neg(wl) } else { wl };
+                let u_front = step
+                    .iter()
+                    .map(|&j| dot(sub(self.pos[j], wc), wl))
+                    .fold(f64::NEG_INFINITY, f64::max);
+                let (new_front, wd) = quadratic_end(self.pos, &window, wc, wl, u_front)
+                    .unwrap_or((add(wc, wl.map(|c| c * u_front)), wl));
+                // The tangent turned too fast for a gently curving edge: a corner. The turn is
+                // measured per radius advanced, so a long step on a hole's rim is not a corner.
+                let advance = dot(sub(new_front, front), wl).max(self.r);
+                let turn = dot(wl, steady).clamp(-1.0, 1.0).acos();
+                if turn > self.max_turn * advance / self.r {
+                    tracing::trace!(
+                        "run growth: turned {:.1}° over {:.2} radii at {front:?}",
+                        turn.to_degrees(),
+                        advance / self.r
+                    );
                     break;
                 }
-                let t_new = step
-                    .iter()
-                    .map(|&j| dot(sub(self.pos[j], wc), wd))
-                    .fold(f64::NEG_INFINITY, f64::max);
-                let new_front = add(wc, wd.map(|c| c * t_new));
                 is_member.extend(step.iter().copied());
                 members.extend(step.iter().copied());
                 // A step that does not advance (a dense clump) ends the run.
-                if dot(sub(new_front, front), wd) < 0.05 * self.r {
+                if dot(sub(new_front, front), wl) < 0.05 * self.r {
                     break;
                 }
+                travelled += norm(sub(new_front, front));
                 front = new_front;
+                fronts[side].push(front);
+                if side == 0
+                    && travelled >= 6.0 * self.r
+                    && norm(sub(front, loop_start)) <= 2.0 * self.r
+                {
+                    closed = true;
+                    break;
+                }
                 dir = wd;
+                steady = wl;
                 recent.push_back(step);
-                if recent.len() > 8 {
+                if recent.len() > LONG_WINDOW {
                     recent.pop_front();
                 }
             }
         }
-        Some(members)
+        let [plus, minus] = fronts;
+        let mut path: Vec<[f64; 3]> = minus.into_iter().rev().collect();
+        path.extend(plus);
+        if closed {
+            path.insert(0, loop_start);
+        }
+        Some(Grown {
+            members,
+            path,
+            closed,
+        })
     }
 }
 
-/// Builds the run's line, extent and centre line; `None` when shorter than `min_length`.
-fn make_run(pos: &[[f64; 3]], members: &[usize], r: f64, min_length: f64) -> Option<Run> {
+/// Builds a run from its members and the path they were grown along: its best line, and its
+/// centre line (the members' centroids in windows one radius long along the path, from the
+/// extreme member to the extreme member). `None` when an open run is shorter than
+/// `min_length` or the path is degenerate.
+fn make_run(
+    pos: &[[f64; 3]],
+    members: &[usize],
+    path: &[[f64; 3]],
+    closed: bool,
+    r: f64,
+    min_length: f64,
+) -> Option<Run> {
     let (o, d) = pca_line(pos, members)?;
-    let ts: Vec<f64> = members.iter().map(|&m| dot(sub(pos[m], o), d)).collect();
-    let t0 = ts.iter().copied().fold(f64::INFINITY, f64::min);
-    let t1 = ts.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-    if t1 - t0 < min_length {
+    // A path too short to follow (a growth that never stepped) is the best line itself.
+    let path = Polyline::new(path, closed).or_else(|| {
+        let ts = members.iter().map(|&m| dot(sub(pos[m], o), d));
+        let (t0, t1) = ts.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), t| {
+            (a.min(t), b.max(t))
+        });
+        Polyline::new(
+            &[add(o, d.map(|c| c * t0)), add(o, d.map(|c| c * t1))],
+            false,
+        )
+    })?;
+    let closed = path.closed();
+    let s: Vec<f64> = members.iter().map(|&m| path.project(pos[m]).0).collect();
+    let (s0, s1) = if closed {
+        (0.0, path.length())
+    } else {
+        s.iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| {
+                (a.min(x), b.max(x))
+            })
+    };
+    if !closed && s1 - s0 < min_length {
         return None;
     }
-    // Centre line: centroids of windows one radius long (by position along the best line;
-    // a gently curving run is still a graph over its chord).
-    let nwin = (((t1 - t0) / r).ceil() as usize).max(1);
-    let mut acc = vec![([0.0f64; 3], 0usize); nwin];
+    let nwin = (((s1 - s0) / r).ceil() as usize).max(if closed { 3 } else { 1 });
+    let width = (s1 - s0) / nwin as f64;
+    let mut acc = vec![([0.0f64; 3], 0.0f64, 0usize); nwin];
     for (k, &m) in members.iter().enumerate() {
-        let w = (((ts[k] - t0) / r) as usize).min(nwin - 1);
+        let w = (((s[k] - s0) / width).max(0.0) as usize).min(nwin - 1);
         acc[w].0 = add(acc[w].0, pos[m]);
-        acc[w].1 += 1;
+        acc[w].1 += s[k];
+        acc[w].2 += 1;
     }
-    let centreline = acc
+    let bins: Vec<([f64; 3], f64)> = acc
         .into_iter()
-        .filter(|a| a.1 > 0)
-        .map(|(s, n)| s.map(|c| c / n as f64))
+        .filter(|a| a.2 > 0)
+        .map(|(p, s, n)| (p.map(|c| c / n as f64), s / n as f64))
         .collect();
+    let mut centreline: Vec<[f64; 3]> = bins.iter().map(|b| b.0).collect();
+    if !closed {
+        // The end windows' centroids lie half a window inside the run: carry them out to the
+        // extreme members along the path's end tangents.
+        let (first, last) = (bins[0], bins[bins.len() - 1]);
+        let t0 = path.tangent(first.1, r);
+        let t1 = path.tangent(last.1, r);
+        centreline.insert(0, add(first.0, t0.map(|c| c * (s0 - first.1))));
+        centreline.push(add(last.0, t1.map(|c| c * (s1 - last.1))));
+    }
+    let closed = closed && Polyline::new(&centreline, true).is_some();
+    Polyline::new(&centreline, closed)?;
     Some(Run {
         points: Vec::new(),
         origin: o,
         direction: d,
-        t_range: [t0, t1],
         centreline,
+        closed,
         vertices: [None, None],
     })
 }
 
-/// Merges runs that continue each other: nearly parallel, collinear within the tube, ends
-/// facing each other across a gap of at most `vertex_reach` radii. Noise can break one edge's
-/// band into pieces; a real vertex always has a turn.
+/// Merges straight runs that lie along one line and overlap or leave a gap of at most
+/// `vertex_reach` radii: noise can break one straight edge's band into pieces, even side by
+/// side, and a real vertex always has a turn. Curved runs are joined end to end instead
+/// ([`continuation_joins`]).
 fn merge_collinear(
     mut runs: Vec<Run>,
     positions: &[[f64; 3]],
@@ -378,16 +674,34 @@ fn merge_collinear(
         .max(params.direction_tolerance)
         .to_radians()
         .cos();
+    let extent = |run: &Run| {
+        run.centreline
+            .iter()
+            .map(|&p| dot(sub(p, run.origin), run.direction))
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), t| {
+                (a.min(t), b.max(t))
+            })
+    };
     loop {
         let mut merged = None;
         'outer: for a in 0..runs.len() {
             for b in a + 1..runs.len() {
-                let len = |r: &Run| r.t_range[1] - r.t_range[0];
+                let (ra, rb) = (&runs[a], &runs[b]);
+                if ra.closed || rb.closed {
+                    continue;
+                }
+                if !ra.is_straight(params.tube * r) || !rb.is_straight(params.tube * r) {
+                    continue;
+                }
+                let len = |r: &Run| {
+                    let (t0, t1) = extent(r);
+                    t1 - t0
+                };
                 // Measure against the longer run: its direction is the better known.
-                let (ra, rb) = if len(&runs[a]) >= len(&runs[b]) {
-                    (&runs[a], &runs[b])
+                let (ra, rb) = if len(ra) >= len(rb) {
+                    (ra, rb)
                 } else {
-                    (&runs[b], &runs[a])
+                    (rb, ra)
                 };
                 if dot(ra.direction, rb.direction).abs() < cos_par {
                     continue;
@@ -399,12 +713,11 @@ fn merge_collinear(
                 if perp > params.tube * r {
                     continue;
                 }
-                let tb: Vec<f64> = [rb.t_range[0], rb.t_range[1]]
-                    .iter()
-                    .map(|&s| t + s * dot(rb.direction, ra.direction))
-                    .collect();
+                let (a0, a1) = extent(ra);
+                let (s0, s1) = extent(rb);
+                let tb = [s0, s1].map(|s| t + s * dot(rb.direction, ra.direction));
                 let (b0, b1) = (tb[0].min(tb[1]), tb[0].max(tb[1]));
-                let gap = (b0 - ra.t_range[1]).max(ra.t_range[0] - b1);
+                let gap = (b0 - a1).max(a0 - b1);
                 if gap <= params.vertex_reach * r {
                     merged = Some((a, b));
                     break 'outer;
@@ -418,19 +731,189 @@ fn merge_collinear(
         points.extend(rb.points);
         points.sort_unstable();
         let members: Vec<usize> = points.iter().map(|&p| p as usize).collect();
-        match make_run(positions, &members, r, 0.0) {
+        // One straight run: rebuilt along the best line of all its points.
+        match make_run(positions, &members, &[], false, r, 0.0) {
             Some(run) => runs[a] = Run { points, ..run },
             None => runs[a].points = points,
         }
     }
 }
 
+/// A join of two run ends ((run, end), (run, end)): the runs continue each other there.
+type Join = ((usize, usize), (usize, usize));
+
+/// Pairs of run ends that face each other across a gap of at most `vertex_reach` radii, with
+/// end tangents within the direction tolerance of opposite and each end within the tube of the
+/// other's end tangent line: one edge broken where noise thinned its band or where it bent a
+/// little faster than the growth follows. Each end joins at most one other, nearest first. A
+/// run's two ends can join each other: the run closes.
+fn continuation_joins(runs: &[Run], r: f64, params: &SegmentParams) -> Vec<Join> {
+    let cos_par = params
+        .turn_angle
+        .max(params.direction_tolerance)
+        .to_radians()
+        .cos();
+    let ends: Vec<(usize, usize)> = (0..runs.len())
+        .filter(|&k| !runs[k].closed)
+        .flat_map(|k| [(k, 0), (k, 1)])
+        .collect();
+    let geo: Vec<([f64; 3], [f64; 3])> = ends.iter().map(|&(k, e)| runs[k].end(e, r)).collect();
+    let lengths: Vec<f64> = runs.iter().map(Run::length).collect();
+    let reach = params.vertex_reach * r;
+    let tube = params.tube * r;
+    let mut pairs: Vec<(f64, usize, usize)> = Vec::new();
+    for a in 0..ends.len() {
+        for b in a + 1..ends.len() {
+            let ((ka, _), (kb, _)) = (ends[a], ends[b]);
+            let ((pa, ta), (pb, tb)) = (geo[a], geo[b]);
+            let g = sub(pb, pa);
+            let gap = norm(g);
+            if gap > reach || dot(ta, tb) > -cos_par {
+                continue;
+            }
+            // A run closing on itself must be long against the gap it closes.
+            if ka == kb && lengths[ka] < 4.0 * gap.max(2.0 * r) {
+                continue;
+            }
+            // Ahead of each other (a little overlap allowed), and each end near the other's
+            // tangent line, measured from the longer run's end.
+            if dot(g, ta) < -r || dot(g, tb) > r {
+                continue;
+            }
+            let (p, t, q) = if lengths[ka] >= lengths[kb] {
+                (pa, ta, pb)
+            } else {
+                (pb, tb, pa)
+            };
+            let v = sub(q, p);
+            if norm(sub(v, t.map(|c| c * dot(v, t)))) > tube {
+                continue;
+            }
+            pairs.push((gap, a, b));
+        }
+    }
+    pairs.sort_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)).then(x.2.cmp(&y.2)));
+    let mut used = vec![false; ends.len()];
+    let mut joins = Vec::new();
+    for (_, a, b) in pairs {
+        if !used[a] && !used[b] {
+            used[a] = true;
+            used[b] = true;
+            joins.push((ends[a], ends[b]));
+        }
+    }
+    joins
+}
+
+/// Vertices where exactly two run ends meet with a turn below `corner_angle` (the angle
+/// between one run's end direction and the other's start direction): joins, not corners.
+fn smooth_vertices(runs: &[Run], vertices: &[Vertex], r: f64, params: &SegmentParams) -> Vec<Join> {
+    let cos_corner = params.corner_angle.to_radians().cos();
+    vertices
+        .iter()
+        .filter(|v| v.ends.len() == 2)
+        .filter_map(|v| {
+            let (a, b) = (v.ends[0], v.ends[1]);
+            let ta = runs[a.0].end(a.1, r).1;
+            let tb = runs[b.0].end(b.1, r).1;
+            // Outward tangents: a straight continuation has them opposite.
+            (-dot(ta, tb) >= cos_corner).then_some((a, b))
+        })
+        .collect()
+}
+
+/// Joins runs end to end along `joins` into chains (a chain whose ends join is closed) and
+/// returns the chained runs: centre lines concatenated in order, points united, vertices
+/// cleared (they are found afterwards). Runs in no join stay as they are.
+fn chain(runs: Vec<Run>, joins: &[Join], positions: &[[f64; 3]]) -> Vec<Run> {
+    if joins.is_empty() {
+        return runs;
+    }
+    let n = runs.len();
+    let mut partner: Vec<[Option<(usize, usize)>; 2]> = vec![[None, None]; n];
+    for &((ka, ea), (kb, eb)) in joins {
+        partner[ka][ea] = Some((kb, eb));
+        partner[kb][eb] = Some((ka, ea));
+    }
+    let mut done = vec![false; n];
+    let mut out = Vec::new();
+    for k in 0..n {
+        if done[k] {
+            continue;
+        }
+        // Walk back from k's start to the chain's first run (or round a loop back to k).
+        let mut first = (k, true);
+        let mut closed = false;
+        loop {
+            let (run, forward) = first;
+            let entry = if forward { 0 } else { 1 };
+            let Some((prev, exit)) = partner[run][entry] else {
+                break;
+            };
+            let elem = (prev, exit == 1);
+            if elem.0 == k {
+                closed = true;
+                break;
+            }
+            first = elem;
+        }
+        // Then forward, collecting the runs in order with their orientation.
+        let mut order = vec![first];
+        loop {
+            let (run, forward) = order[order.len() - 1];
+            let exit = if forward { 1 } else { 0 };
+            let Some((next, entry)) = partner[run][exit] else {
+                break;
+            };
+            if next == first.0 {
+                closed = true;
+                break;
+            }
+            order.push((next, entry == 0));
+        }
+        for &(run, _) in &order {
+            done[run] = true;
+        }
+        if order.len() == 1 && !closed {
+            out.push(runs[order[0].0].clone());
+            continue;
+        }
+        let mut centreline: Vec<[f64; 3]> = Vec::new();
+        let mut points: Vec<u32> = Vec::new();
+        for &(run, forward) in &order {
+            let cl = &runs[run].centreline;
+            if forward {
+                centreline.extend(cl.iter().copied());
+            } else {
+                centreline.extend(cl.iter().rev().copied());
+            }
+            points.extend(runs[run].points.iter().copied());
+        }
+        points.sort_unstable();
+        points.dedup();
+        let ids: Vec<usize> = points.iter().map(|&p| p as usize).collect();
+        let Some((origin, direction)) = pca_line(positions, &ids) else {
+            out.extend(order.iter().map(|&(run, _)| runs[run].clone()));
+            continue;
+        };
+        let closed = closed && Polyline::new(&centreline, true).is_some();
+        out.push(Run {
+            points,
+            origin,
+            direction,
+            centreline,
+            closed,
+            vertices: [None, None],
+        });
+    }
+    out
+}
+
 /// Drops runs whose candidates per unit length fall below `share` of the median run's: a
 /// real edge's band is as wide along its whole length, while stray agreeing candidates in a
 /// corner region or on a curved patch are a thin trail.
 fn drop_sparse(runs: Vec<Run>, share: f64) -> Vec<Run> {
-    let density =
-        |r: &Run| r.points.len() as f64 / (r.t_range[1] - r.t_range[0]).max(f64::MIN_POSITIVE);
+    let density = |r: &Run| r.points.len() as f64 / r.length().max(f64::MIN_POSITIVE);
     let mut d: Vec<f64> = runs.iter().map(density).collect();
     if d.is_empty() {
         return runs;
@@ -442,23 +925,17 @@ fn drop_sparse(runs: Vec<Run>, share: f64) -> Vec<Run> {
         .collect()
 }
 
-/// Groups run ends whose lines meet near them into vertices.
+/// Groups run ends whose end tangent lines meet near them into vertices.
 fn find_vertices(mut runs: Vec<Run>, r: f64, params: &SegmentParams) -> (Vec<Run>, Vec<Vertex>) {
-    let ends: Vec<(usize, usize)> = (0..runs.len()).flat_map(|k| [(k, 0), (k, 1)]).collect();
-    // End point and outward direction of each end.
-    let geo: Vec<([f64; 3], [f64; 3])> = ends
-        .iter()
-        .map(|&(k, e)| {
-            let run = &runs[k];
-            let p = add(run.origin, run.direction.map(|c| c * run.t_range[e]));
-            let out = if e == 0 {
-                neg(run.direction)
-            } else {
-                run.direction
-            };
-            (p, out)
-        })
+    for run in &mut runs {
+        run.vertices = [None, None];
+    }
+    let ends: Vec<(usize, usize)> = (0..runs.len())
+        .filter(|&k| !runs[k].closed)
+        .flat_map(|k| [(k, 0), (k, 1)])
         .collect();
+    // End point and outward direction of each end.
+    let geo: Vec<([f64; 3], [f64; 3])> = ends.iter().map(|&(k, e)| runs[k].end(e, r)).collect();
     let reach = params.vertex_reach * r;
     let gap = params.vertex_gap * r;
     let mut uf = UnionFind::new(ends.len());
@@ -495,6 +972,14 @@ fn find_vertices(mut runs: Vec<Run>, r: f64, params: &SegmentParams) -> (Vec<Run
         let Some(position) = nearest_point_to_lines(&lines) else {
             continue;
         };
+        // Grouped through others, two ends may share a vertex whose lines meet far from
+        // them (nearly parallel rays): such a vertex is no meeting point.
+        if members
+            .iter()
+            .any(|&e| norm(sub(position, geo[e].0)) > reach + gap)
+        {
+            continue;
+        }
         let id = vertices.len();
         for &e in &members {
             let (k, end) = ends[e];
@@ -693,7 +1178,7 @@ mod tests {
                     format!(
                         "{} pts len {:.1} v {:?}",
                         r.points.len(),
-                        r.t_range[1] - r.t_range[0],
+                        r.length(),
                         r.vertices
                     )
                 })
@@ -731,7 +1216,7 @@ mod tests {
                     best.2 > 5f64.to_radians().cos(),
                     "sigma {sigma}: run of {} points, length {:.2}, direction off by {}",
                     run.points.len(),
-                    run.t_range[1] - run.t_range[0],
+                    run.length(),
                     best.2.acos().to_degrees()
                 );
                 hit[best.0] += 1;

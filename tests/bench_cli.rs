@@ -296,7 +296,9 @@ fn mesh_cases_run_or_are_skipped_with_a_note() {
     assert_eq!(c["kind"], "curved");
     assert!(c["error"].is_null(), "{}", c["error"]);
     // SOURCES.md: 722 sharp mesh edges in 35 polylines, 23 corners; no oracle on curves.
-    assert_eq!(c["edges"]["true_segments"], 722);
+    // The simulator smooths the curved patches with two levels of subdivision, which splits
+    // every sharp mesh edge in four.
+    assert_eq!(c["edges"]["true_segments"], 4 * 722);
     assert_eq!(c["edges"]["true_polylines"], 35);
     assert_eq!(c["corners"]["true"], 23);
     assert!(c["edges"]["oracle_rms_h"].is_null());

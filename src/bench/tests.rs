@@ -479,11 +479,11 @@ fn sphere_case_runs_and_has_nothing_to_find() {
 #[test]
 fn away_from_edges_is_beyond_the_rounding_and_the_noise() {
     let h = 0.5;
-    // A 90° edge rounded with 1.5 h, σ 0.15 h: 1.5 + 2 + 0.6 = 4.1 h.
-    assert!((away_limit(1.5 * h, 0.15, h) - 4.1 * h).abs() < 1e-12);
-    // A 30° wedge with the same rounding leaves its faces 5.6 h out: 8.2 h.
+    // A 90° edge rounded with 1.5 h, σ 0.15 h: 1.5 + 2 + 0.75 = 4.25 h.
+    assert!((away_limit(1.5 * h, 0.15, h) - 4.25 * h).abs() < 1e-12);
+    // A 30° wedge with the same rounding leaves its faces 5.6 h out: 8.35 h.
     let td = 1.5 * h / (15f64.to_radians()).tan();
-    assert!((away_limit(td, 0.15, h) - (td + 2.6 * h)).abs() < 1e-12);
+    assert!((away_limit(td, 0.15, h) - (td + 2.75 * h)).abs() < 1e-12);
     // Sharp and noise-free: never less than AWAY.
     assert_eq!(away_limit(0.0, 0.0, h), AWAY * h);
 }
