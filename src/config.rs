@@ -98,6 +98,7 @@ struct RawEdges {
     vertex_margin: Opt<f64>,
     straight_tolerance: Opt<f64>,
     max_rounding: Opt<f64>,
+    min_turn: Opt<f64>,
 }
 
 #[derive(Debug, Default, Deserialize)]
@@ -685,6 +686,7 @@ impl Checker<'_> {
                 f64::INFINITY,
                 true,
             )?,
+            min_turn: self.number(&e.min_turn, "edges.min_turn", ed.min_turn, 0.0, 90.0, false)?,
         };
         let corners = CornerParams {
             reach: self.number(

@@ -15,8 +15,7 @@ use rand::SeedableRng;
 use rand::rngs::SmallRng;
 use rayon::prelude::*;
 
-use crate::edges::EdgeFit;
-use crate::features::Scale;
+use crate::edges::{EdgeResult, Surface};
 use crate::fit::{FitParams, fit_corner_3d};
 use crate::segment::{Segments, add, dot, nearest_point_to_lines, norm, sub};
 
@@ -61,9 +60,9 @@ pub struct CornerOutcome {
 /// Fits every vertex with at least two fitted edges, in parallel, each with its own RNG from
 /// (seed, vertex id).
 pub fn fit_corners(
+    surface: &Surface,
     segments: &Segments,
-    edges: &[Result<EdgeFit, String>],
-    scale: &Scale,
+    edges: &[EdgeResult],
     params: &CornerParams,
     fit: &FitParams,
     seed: u64,
@@ -83,7 +82,7 @@ pub fn fit_corners(
             let mut rng = SmallRng::seed_from_u64(
                 seed.rotate_left(17) ^ (v as u64).wrapping_mul(0xD1B5_4A32_D192_ED03),
             );
-            fit_vertex(segments, edges, v, scale, params, &fit, &mut rng)
+            fit_vertex(surface, segments, edges, v, params, &fit, &mut rng)
         })
         .collect()
 }
@@ -93,6 +92,10 @@ pub fn fit_corners(
 /// within 0.1 spacing; a vertex joining runs that do not end at a common point — a hole's rim
 /// broken in two, a misread short edge — gave corners 5 to 40 spacings off).
 const CORNER_ON_LINES: f64 = 2.0;
+
+/// Slack, in spacings, of the distance from a corner to its nearest scan point beyond what the
+/// measured roundings explain.
+const CORNER_ON_SCAN: f64 = 2.0;
 
 /// The line through the (up to six) rectified points of one edge nearest to `near`: where the
 /// edge leaves its vertex.
@@ -108,14 +111,15 @@ fn end_line(points: &[[f64; 3]], near: [f64; 3]) -> Option<([f64; 3], [f64; 3])>
 }
 
 fn fit_vertex(
+    surface: &Surface,
     segments: &Segments,
-    edges: &[Result<EdgeFit, String>],
+    edges: &[EdgeResult],
     v: usize,
-    scale: &Scale,
     params: &CornerParams,
     fit: &FitParams,
     rng: &mut SmallRng,
 ) -> CornerOutcome {
+    let scale = surface.scale;
     let vertex = &segments.vertices[v];
     let approx = vertex.position;
     let reach = params.reach * scale.radius;
@@ -153,9 +157,43 @@ fn fit_vertex(
             (d > CORNER_ON_LINES * scale.spacing).then_some((k, d / scale.spacing))
         })
     };
+    // A corner of the part is where its scan comes close: at most as far as the roundings
+    // measured on its edges leave the surface from their sharp edge, R (1 / sin(β/2) − 1), plus
+    // two spacings and three sigmas. Two straight edges running into a fillet's arc meet at a
+    // virtual corner the scan never comes near (0.41 R away for 90°).
+    let allowed = ids
+        .iter()
+        .filter_map(|&k| edges[k].as_ref().ok())
+        .map(|e| {
+            let half = (0.5 * e.dihedral_deg.to_radians()).clamp(0.05, 1.5);
+            let radius = e.zone * half.tan();
+            radius * (1.0 / half.sin() - 1.0)
+        })
+        .fold(0.0, f64::max)
+        + CORNER_ON_SCAN * scale.spacing
+        + 3.0 * scale.noise;
+    let unsupported = |p: [f64; 3]| {
+        let mut near = false;
+        surface.grid.for_each_near_segment(p, p, allowed, |i| {
+            near |= !surface.outlier[i as usize];
+        });
+        (!near).then(|| {
+            format!(
+                "corner {v}: no scan point within {:.1} spacings of where its edges meet: a \
+                 virtual corner (edges running into a fillet), not one of the part",
+                allowed / scale.spacing
+            )
+        })
+    };
     let refs: Vec<&[[f64; 3]]> = sides.iter().map(|s| s.as_slice()).collect();
     let failure = match fit_corner_3d(&refs, approx, fit, rng) {
         Ok(f) => match off(f.pso.point) {
+            None if let Some(why) = unsupported(f.pso.point) => {
+                return CornerOutcome {
+                    corner: None,
+                    failure: Some(why),
+                };
+            }
             None => {
                 return CornerOutcome {
                     corner: Some(CornerFit {
@@ -176,10 +214,15 @@ fn fit_vertex(
         },
         Err(e) => format!("corner {v}: {e}"),
     };
-    // The fit failed or does not fit its edges: where their end lines meet, if they do.
+    // The fit failed or does not fit its edges: where their end lines meet, if they do and
+    // there are three or more of them (two lines always pass near some point; where the
+    // swarm found no consistent corner for two edges, that point was seen 8 to 50 spacings
+    // from any corner of the anchor).
     let known: Vec<([f64; 3], [f64; 3])> = lines.iter().flatten().copied().collect();
-    let corner = nearest_point_to_lines(&known)
-        .filter(|&p| off(p).is_none())
+    let corner = (known.len() >= 3)
+        .then(|| nearest_point_to_lines(&known))
+        .flatten()
+        .filter(|&p| off(p).is_none() && unsupported(p).is_none())
         .map(|p| CornerFit {
             vertex: v,
             position: p,
@@ -231,7 +274,7 @@ impl EdgeGeometry {
 /// `corner_of_vertex[v]` is the fitted corner id of vertex v, if it was fitted.
 pub fn edge_geometry(
     segments: &Segments,
-    edges: &[Result<EdgeFit, String>],
+    edges: &[EdgeResult],
     corners: &[CornerFit],
     corner_of_vertex: &[Option<usize>],
 ) -> Vec<Option<EdgeGeometry>> {

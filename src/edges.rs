@@ -29,6 +29,11 @@ use crate::segment::{Segments, add, dot, norm, pca_line, sub};
 /// several slabs or centre-line windows, short against any curve an edge run follows.
 const TANGENT_HALF: f64 = 2.5;
 
+/// An edge needs this many slab fits: two agree with anything (a 16-spacing "edge" on a tight
+/// blend of the anchor had two, and moved face points), and the corner stage needs three
+/// rectified points an edge anyway.
+const MIN_SLABS: usize = 3;
+
 /// Settings of the edge stage (validated by `config`).
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct EdgeParams {
@@ -46,6 +51,9 @@ pub struct EdgeParams {
     /// a fillet of the part, not a sharp edge the scan rounded: it is left out (and reported)
     /// and its points are not moved.
     pub max_rounding: f64,
+    /// Slabs whose faces turn by less than this many degrees (a crease fading out into a
+    /// smooth surface) are left out of an edge; the sharp edges of a part turn by 30° or more.
+    pub min_turn: f64,
 }
 
 impl Default for EdgeParams {
@@ -56,6 +64,7 @@ impl Default for EdgeParams {
             vertex_margin: 1.5,
             straight_tolerance: 0.3,
             max_rounding: 6.0,
+            min_turn: 25.0,
         }
     }
 }
@@ -97,15 +106,47 @@ pub struct EdgeFit {
     pub rms: f64,
     /// Straight (a line) or gently curving (a polyline through the smoothed rectified points).
     pub straight: bool,
+    /// The edge goes round a closed curve (a hole's rim): no ends, no corners.
+    pub closed: bool,
     /// Interior angle between the two faces, in degrees (median over slabs).
     pub dihedral_deg: f64,
     /// Half-width of the abnormal zone measured from the pooled residuals (distance from the
     /// corner along the faces where the scan leaves them); 0 when none was measured.
     pub zone: f64,
+    /// Whether the edge had points enough to measure its zone at all (a few slabs' worth do
+    /// not): without it nothing tells its abnormal points from its faces', and none moves.
+    pub zone_known: bool,
     /// Slab fits that failed (count) with the first reason.
     pub failed_slabs: usize,
     pub first_failure: Option<String>,
 }
+
+/// Why a run gave no edge.
+#[derive(Debug, Clone, PartialEq)]
+pub enum EdgeError {
+    /// The run is no sharp edge: a fillet, a surface bending, too little evidence. Its
+    /// candidates are left out of the vertices too.
+    NotAnEdge(String),
+    /// The fit failed (too short between its vertices, too few points in its band, ...).
+    Failed(String),
+}
+
+impl std::fmt::Display for EdgeError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            EdgeError::NotAnEdge(s) | EdgeError::Failed(s) => f.write_str(s),
+        }
+    }
+}
+
+impl From<String> for EdgeError {
+    fn from(s: String) -> Self {
+        EdgeError::Failed(s)
+    }
+}
+
+/// One run's edge, or why there is none.
+pub type EdgeResult = Result<EdgeFit, EdgeError>;
 
 /// The scanned surface as the fitting stages see it: positions, the outlier mask of the
 /// features stage, the neighbour grid and the measured scale.
@@ -125,7 +166,7 @@ pub fn fit_edges(
     params: &EdgeParams,
     fit: &FitParams,
     seed: u64,
-) -> Vec<Result<EdgeFit, String>> {
+) -> Vec<EdgeResult> {
     let Surface {
         positions,
         outlier,
@@ -158,6 +199,8 @@ pub fn fit_edges(
 struct Pass {
     slabs: Vec<SlabFit>,
     failed: usize,
+    /// Slabs whose profile is a wide arc, not two faces (see `smooth_bend`).
+    bends: usize,
     first_failure: Option<String>,
     /// (distance from the slab's corner along the face, signed distance to the face's local
     /// line towards the other face) of every side and corner-region point, for the zone
@@ -209,12 +252,12 @@ fn fit_run(
     rng: &mut SmallRng,
     scratch: &mut ProfileScratch,
     out: &mut ProfileFit,
-) -> Result<EdgeFit, String> {
+) -> EdgeResult {
     let run = &segments.runs[k];
     let r = scale.radius;
-    let run_line = run
-        .polyline()
-        .ok_or_else(|| format!("edge {k}: its centre line collapsed to a point"))?;
+    let run_line = run.polyline().ok_or_else(|| {
+        EdgeError::Failed(format!("edge {k}: its centre line collapsed to a point"))
+    })?;
     let band = params.band * r;
     let stretch = if run.closed {
         Stretch::Closed
@@ -247,10 +290,13 @@ fn fit_run(
             s[e] = if e == 0 { sv + margin } else { sv - margin };
         }
         if s[1] - s[0] < r {
-            return Err(format!(
-                "edge {k}: too short between its vertices ({:.3})",
-                s[1] - s[0]
-            ));
+            return Err(EdgeError::Failed(format!(
+                "edge {k}: too short between its vertices: {:.1} spacings long, its slabs must \
+                 keep clear of its vertices from {:.1} to {:.1} spacings along it",
+                length / scale.spacing,
+                s[0] / scale.spacing,
+                s[1] / scale.spacing
+            )));
         }
         Stretch::Open(run_line.at(s[0]), run_line.at(s[1]))
     };
@@ -275,12 +321,15 @@ fn fit_run(
     let mut pass = first;
     let mut zone_used = 0.0;
     let mut zone_raw = 0.0;
+    let mut zone_known = false;
     for _ in 0..2 {
-        let raw = abnormal_zone(
+        let measured = abnormal_zone(
             &pass.residuals,
             scale,
             2.0 * band.max(2.0 * zone_used + 2.0 * r),
         );
+        zone_known |= measured.is_some();
+        let raw = measured.unwrap_or(0.0);
         // Fitting keeps half a bin more out: a side point must be clearly on its face.
         let zone = if raw > 0.0 {
             raw + 0.25 * scale.spacing
@@ -353,25 +402,72 @@ fn fit_run(
             });
         }
     }
+    // Where the faces hardly turn (a crease fading out into a smooth surface), the slabs see
+    // one surface bending, not an edge: they are left out, and so is a run made of them only.
+    let flat = 180.0 - params.min_turn;
+    let before = pass.slabs.len();
+    pass.slabs.retain(|s| slab_angle(s) <= flat);
+    let dropped = before - pass.slabs.len();
+    if pass.slabs.len() < 2 {
+        return Err(EdgeError::NotAnEdge(format!(
+            "edge {k}: its faces turn by less than edges.min_turn = {}° along it: a surface \
+             bending, not a sharp edge; left out",
+            params.min_turn
+        )));
+    }
+    if dropped > 0 {
+        pass.failed += dropped;
+        pass.first_failure.get_or_insert_with(|| {
+            format!(
+                "edge {k}: {dropped} slab(s) whose faces turn by less than edges.min_turn left out"
+            )
+        });
+    }
+    let (_, _, straight) = edge_line(&pass.slabs, scale, params);
+    if !straight {
+        // A curved edge keeps one consistent stretch: where its slab corners jump or its faces'
+        // angle changes abruptly, the run went on into another crease (seen on the anchor: a
+        // 135° crease whose run continued 4 spacings off, onto a 90° one).
+        let keep = consistent_stretch(&pass.slabs, scale.spacing);
+        let dropped = pass.slabs.len() - keep.len();
+        if dropped > 0 {
+            pass.slabs = pass.slabs[keep].to_vec();
+            pass.failed += dropped;
+            pass.first_failure.get_or_insert_with(|| {
+                format!("edge {k}: {dropped} slab(s) beyond a jump in its course left out")
+            });
+        }
+    }
+    if pass.bends >= pass.slabs.len() {
+        return Err(EdgeError::NotAnEdge(format!(
+            "edge {k}: {} of its slab profiles are arcs wider than edges.max_rounding and only {} \
+             are two faces: a fillet or a curved surface, not a sharp edge; left out",
+            pass.bends,
+            pass.slabs.len()
+        )));
+    }
+    if pass.slabs.len() < MIN_SLABS {
+        return Err(EdgeError::NotAnEdge(format!(
+            "edge {k}: only {} slab fit(s) left, fewer than {MIN_SLABS}: too little to tell \
+             an edge from a tight bend of the surface; left out",
+            pass.slabs.len()
+        )));
+    }
     let (line, rms, straight) = edge_line(&pass.slabs, scale, params);
-    let mut angles: Vec<f64> = pass
-        .slabs
-        .iter()
-        .map(|s| {
-            dot(s.faces[0], s.faces[1])
-                .clamp(-1.0, 1.0)
-                .acos()
-                .to_degrees()
-        })
-        .collect();
+    let mut angles: Vec<f64> = pass.slabs.iter().map(slab_angle).collect();
     let mid = angles.len() / 2;
     let dihedral_deg = *angles.select_nth_unstable_by(mid, f64::total_cmp).1;
     tracing::debug!(
-        "edge {k}: {} slabs ({} failed), abnormal zone {:.2} spacings, rms {:.3} spacings, \
+        "edge {k}: {} slabs ({} failed), abnormal zone {:.2} spacings{}, rms {:.3} spacings, \
          dihedral {dihedral_deg:.1}°, {}",
         pass.slabs.len(),
         pass.failed,
         zone_raw / scale.spacing,
+        if zone_known {
+            ""
+        } else {
+            " (too few points to measure)"
+        },
         rms / scale.spacing,
         if straight { "straight" } else { "curved" }
     );
@@ -380,17 +476,19 @@ fn fit_run(
     // (a box's 1.5-spacing scanner rounding: t = 1.5; a 30° wedge's: t = 5.6, R still 1.5).
     let rounding = zone_raw * (0.5 * dihedral_deg.to_radians()).tan();
     if rounding > params.max_rounding * scale.spacing {
-        return Err(format!(
+        return Err(EdgeError::NotAnEdge(format!(
             "edge {k}: its faces meet through a rounding of radius {:.1} spacings, more than \
              edges.max_rounding = {}: a fillet, not a sharp edge; left out",
             rounding / scale.spacing,
             params.max_rounding
-        ));
+        )));
     }
     Ok(EdgeFit {
         run: k,
         zone: zone_raw,
+        zone_known,
         straight,
+        closed: run.closed,
         slabs: pass.slabs,
         line,
         rms,
@@ -460,6 +558,111 @@ fn edge_line(
     let scatter = rms_smooth * (7.0f64 / 4.0).sqrt();
     let straight = rms <= params.straight_tolerance * scale.spacing || rms <= 1.5 * scatter;
     (line, rms, straight)
+}
+
+/// Least-squares circle through 2D points (Kåsa's algebraic fit, "A circle fitting procedure
+/// and its error analysis", 1976, on centred coordinates): its radius and the RMS distance of
+/// the points from it. `None` for fewer than four points or (nearly) collinear ones.
+pub fn circle_fit(points: &[[f64; 2]]) -> Option<(f64, f64)> {
+    let n = points.len();
+    if n < 4 {
+        return None;
+    }
+    let m = points.iter().fold([0.0, 0.0], |a, p| {
+        [a[0] + p[0] / n as f64, a[1] + p[1] / n as f64]
+    });
+    // x² + y² = a x + b y + c in centred coordinates.
+    let mut ata = nalgebra::Matrix3::<f64>::zeros();
+    let mut atb = nalgebra::Vector3::<f64>::zeros();
+    for p in points {
+        let (x, y) = (p[0] - m[0], p[1] - m[1]);
+        let row = nalgebra::Vector3::new(x, y, 1.0);
+        ata += row * row.transpose();
+        atb += row * (x * x + y * y);
+    }
+    let sol = ata.lu().solve(&atb)?;
+    let (cx, cy) = (0.5 * sol[0], 0.5 * sol[1]);
+    let r2 = sol[2] + cx * cx + cy * cy;
+    if !(r2.is_finite() && r2 > 0.0) {
+        return None;
+    }
+    let r = r2.sqrt();
+    let ss: f64 = points
+        .iter()
+        .map(|p| {
+            let d = ((p[0] - m[0] - cx).powi(2) + (p[1] - m[1] - cy).powi(2)).sqrt() - r;
+            d * d
+        })
+        .sum();
+    Some((r, (ss / n as f64).sqrt()))
+}
+
+/// The radius of the circle that fits a slab's profile better than its two constrained lines
+/// (through the swarm's corner, with the local fits' slopes) do, if one does.
+fn smooth_bend(profile: &[[f64; 2]], fit: &ProfileFit) -> Option<f64> {
+    let (radius, circle_rms) = circle_fit(profile)?;
+    let q = fit.pso.point;
+    let dirs = [fit.local[0].direction, fit.local[1].direction];
+    let ss: f64 = profile
+        .iter()
+        .map(|p| {
+            let v = [p[0] - q[0], p[1] - q[1]];
+            dirs.iter()
+                .map(|d| (v[0] * d[1] - v[1] * d[0]).abs())
+                .fold(f64::INFINITY, f64::min)
+                .powi(2)
+        })
+        .sum();
+    let lines_rms = (ss / profile.len() as f64).sqrt();
+    (circle_rms < lines_rms).then_some(radius)
+}
+
+/// Angle between a slab's two face traces, in degrees: the profile's interior angle, 180° where
+/// the faces do not turn.
+fn slab_angle(s: &SlabFit) -> f64 {
+    dot(s.faces[0], s.faces[1])
+        .clamp(-1.0, 1.0)
+        .acos()
+        .to_degrees()
+}
+
+/// The longest run of consecutive slabs (by arc length) without a break, a break being a
+/// slab corner more than two `spacing`s sideways of the previous one (across the edge's local
+/// direction), or a change of more than 15° in the faces' angle (each slab's angle the median
+/// of it and its neighbours, so one noisy slab breaks nothing).
+fn consistent_stretch(slabs: &[SlabFit], spacing: f64) -> std::ops::Range<usize> {
+    let n = slabs.len();
+    if n < 3 {
+        return 0..n;
+    }
+    let raw: Vec<f64> = slabs.iter().map(slab_angle).collect();
+    let smooth: Vec<f64> = (0..n)
+        .map(|i| {
+            let mut w = [raw[i.saturating_sub(1)], raw[i], raw[(i + 1).min(n - 1)]];
+            w.sort_by(f64::total_cmp);
+            w[1]
+        })
+        .collect();
+    let mut best = 0..1;
+    let mut start = 0;
+    let length = |r: &std::ops::Range<usize>| slabs[r.end - 1].t - slabs[r.start].t;
+    for i in 1..=n {
+        let broken = i == n || {
+            let (a, b) = (&slabs[i - 1], &slabs[i]);
+            // Sideways, across the edge's course: along it a missing slab is no jump.
+            let step = sub(b.corner, a.corner);
+            let along = dot(step, a.tangent);
+            let sideways = norm(sub(step, a.tangent.map(|x| x * along)));
+            sideways > 2.0 * spacing || (smooth[i] - smooth[i - 1]).abs() > 15.0
+        };
+        if broken {
+            if length(&(start..i)) > length(&best) {
+                best = start..i;
+            }
+            start = i;
+        }
+    }
+    best
 }
 
 /// Indices of the distances within 4 robust sigmas (1.4826 · median).
@@ -601,8 +804,8 @@ fn next_centre(
 /// an edge: going out from the corner, the outer end of the last stretch (half-spacing bins)
 /// whose mean residual towards the other face stands clearly above the faces' own level. Faces are
 /// straight in the profile; a fillet or a lip bends towards the inside of the angle. 0 when no
-/// stretch deviates (a sharp edge).
-fn abnormal_zone(res: &[(f64, f64, bool)], scale: &Scale, band: f64) -> f64 {
+/// stretch deviates (a sharp edge); `None` when too few points to tell.
+fn abnormal_zone(res: &[(f64, f64, bool)], scale: &Scale, band: f64) -> Option<f64> {
     // The band's reach along the faces: a high percentile of the side points' distances (a
     // corner-region point of a failed side can sit anywhere).
     let mut s_side: Vec<f64> = res
@@ -611,7 +814,7 @@ fn abnormal_zone(res: &[(f64, f64, bool)], scale: &Scale, band: f64) -> f64 {
         .map(|x| x.0)
         .collect();
     if s_side.len() < 50 {
-        return 0.0;
+        return None;
     }
     let k = ((s_side.len() * 95) / 100).min(s_side.len() - 1);
     let s_max = *s_side.select_nth_unstable_by(k, f64::total_cmp).1;
@@ -637,7 +840,7 @@ fn abnormal_zone(res: &[(f64, f64, bool)], scale: &Scale, band: f64) -> f64 {
         .map(|x| (x.0, x.1))
         .collect();
     if outer.len() < 20 {
-        return 0.0;
+        return None;
     }
     let n = outer.len() as f64;
     let (ms, mr) = outer
@@ -672,7 +875,7 @@ fn abnormal_zone(res: &[(f64, f64, bool)], scale: &Scale, band: f64) -> f64 {
             }
         }
     }
-    zone.min(0.5 * band)
+    Some(zone.min(0.5 * band))
 }
 
 /// One pass of slab fits along `centre`, with the abnormal zone `zone` (0: the propagation
@@ -738,6 +941,7 @@ fn slab_pass(
     let mut pass = Pass {
         slabs: Vec::with_capacity(nslab),
         failed: 0,
+        bends: 0,
         first_failure: None,
         residuals: Vec::new(),
     };
@@ -766,6 +970,23 @@ fn slab_pass(
             slopes: faces.map(|f| f.map(|d| [dot(d, e1), dot(d, e2)])),
         };
         let res = fit_profile_2d_zone(&profile, [0.0, 0.0], &known, ctx.fit, rng, scratch, out);
+        // A profile that one circular arc, wider than any rounding a scan makes, follows
+        // better than the two constrained lines is a fillet or a curved surface, not two
+        // faces meeting (a sharp edge's profile is two lines, which no circle follows).
+        let res = res.and_then(|()| match smooth_bend(&profile, out) {
+            Some(radius) if radius > params.max_rounding * scale.spacing => {
+                pass.bends += 1;
+                Err(crate::Error::Degenerate {
+                    what: "slab profile",
+                    why: format!(
+                        "an arc of radius {:.1} spacings (a fillet or a curved surface, not an \
+                         edge)",
+                        radius / scale.spacing
+                    ),
+                })
+            }
+            _ => Ok(()),
+        });
         match res {
             Ok(()) => {
                 let lift = |q: [f64; 2]| add(c, add(e1.map(|x| x * q[0]), e2.map(|x| x * q[1])));
@@ -909,4 +1130,59 @@ pub fn perpendicular_basis(d: [f64; 3]) -> ([f64; 3], [f64; 3]) {
         d[0] * e1[1] - d[1] * e1[0],
     ];
     (e1, e2)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn circle_fit_recovers_an_arc_and_rejects_two_lines_and_a_line() {
+        // A 70° arc of radius 15 around (2, −3).
+        let arc: Vec<[f64; 2]> = (0..50)
+            .map(|i| {
+                let a = (-35.0 + 70.0 * i as f64 / 49.0f64).to_radians();
+                [2.0 + 15.0 * a.sin(), -3.0 + 15.0 * a.cos()]
+            })
+            .collect();
+        let (r, rms) = circle_fit(&arc).unwrap();
+        assert!((r - 15.0).abs() < 1e-9 && rms < 1e-9, "{r} {rms}");
+        // Two faces meeting at 90°: the best circle misses them by a tenth of their length.
+        let corner: Vec<[f64; 2]> = (0..50)
+            .map(|i| {
+                let t = i as f64 / 49.0 * 20.0 - 10.0;
+                if t < 0.0 { [t, 0.0] } else { [0.0, t] }
+            })
+            .collect();
+        let (_, rms) = circle_fit(&corner).unwrap();
+        assert!(rms > 0.5, "{rms}");
+        // Collinear points and too few points have no circle.
+        let line: Vec<[f64; 2]> = (0..10).map(|i| [i as f64, 2.0 * i as f64]).collect();
+        assert!(circle_fit(&line).is_none_or(|(r, _)| r > 1e6));
+        assert!(circle_fit(&arc[..3]).is_none());
+    }
+
+    #[test]
+    fn local_quadratic_smoothing_keeps_an_arc_and_its_ends() {
+        // Points on a circle of radius 10, 6° apart: a moving average would pull them in by
+        // about 2Δ²/R and shorten the ends; the local quadratic keeps them on the circle.
+        // Open: half the circle; closed: all of it (the windows wrap round).
+        for (n, closed) in [(30, false), (60, true)] {
+            let pts: Vec<[f64; 3]> = (0..n)
+                .map(|i| {
+                    let a = (6.0 * i as f64).to_radians();
+                    [10.0 * a.cos(), 10.0 * a.sin(), 1.0]
+                })
+                .collect();
+            let s = smooth_polyline(&pts, 3, closed);
+            for (p, q) in pts.iter().zip(&s) {
+                let r = (q[0] * q[0] + q[1] * q[1]).sqrt();
+                assert!((r - 10.0).abs() < 0.02, "closed {closed}: radius {r}");
+                assert!(
+                    norm(sub(*p, *q)) < 0.02,
+                    "closed {closed}: moved along the arc"
+                );
+            }
+        }
+    }
 }

@@ -11,7 +11,7 @@ use std::time::Instant;
 use crate::cloud::Cloud;
 use crate::config::Settings;
 use crate::corners::{self, CornerFit};
-use crate::edges;
+use crate::edges::{self, EdgeError};
 use crate::error::{Error, Result};
 use crate::features::{self, Features, Scale};
 use crate::io;
@@ -181,7 +181,7 @@ pub fn process(cloud: Cloud, settings: &Settings, clock: &mut impl LapClock) -> 
     );
     drop(progress);
     clock.lap("features");
-    let segments = segment::segment(&cloud.positions, &features, &scale, &settings.segment);
+    let mut segments = segment::segment(&cloud.positions, &features, &scale, &settings.segment);
     clock.lap("segment");
     let surface = edges::Surface {
         positions: &cloud.positions,
@@ -189,27 +189,53 @@ pub fn process(cloud: Cloud, settings: &Settings, clock: &mut impl LapClock) -> 
         grid: &grid,
         scale: &scale,
     };
-    let fits = edges::fit_edges(
+    let mut fits = edges::fit_edges(
         &surface,
         &segments,
         &settings.edges,
         &settings.fit,
         settings.seed,
     );
+    let mut failures: Vec<String> = Vec::new();
+    // Runs that are no sharp edge (fillets, bending surfaces) took part in vertices: find
+    // the vertices again without them and fit the edges that are left anew.
+    let not_edge: Vec<bool> = fits
+        .iter()
+        .map(|f| matches!(f, Err(EdgeError::NotAnEdge(_))))
+        .collect();
+    if not_edge.iter().any(|&d| d) {
+        failures.extend(fits.iter().filter_map(|f| match f {
+            Err(e @ EdgeError::NotAnEdge(_)) => Some(e.to_string()),
+            _ => None,
+        }));
+        segments = segment::without_runs(
+            &cloud.positions,
+            segments,
+            &not_edge,
+            &scale,
+            &settings.segment,
+        );
+        fits = edges::fit_edges(
+            &surface,
+            &segments,
+            &settings.edges,
+            &settings.fit,
+            settings.seed,
+        );
+    }
     clock.lap("edges");
     let corner_fits = corners::fit_corners(
+        &surface,
         &segments,
         &fits,
-        &scale,
         &settings.corners,
         &settings.fit,
         settings.seed,
     );
     clock.lap("corners");
-    let mut failures: Vec<String> = Vec::new();
     for f in &fits {
         match f {
-            Err(e) => failures.push(e.clone()),
+            Err(e) => failures.push(e.to_string()),
             Ok(e) if e.failed_slabs > 0 => {
                 tracing::debug!(
                     "edge {}: {} of {} slab fits failed",

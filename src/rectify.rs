@@ -14,7 +14,7 @@
 //! the corner.
 
 use crate::corners::{CornerFit, EdgeGeometry};
-use crate::edges::{EdgeFit, mean_faces};
+use crate::edges::{EdgeResult, mean_faces};
 use crate::features::Scale;
 use crate::neighbours::Grid;
 use crate::segment::{add, dot, norm, sub};
@@ -59,7 +59,7 @@ pub struct Rectified {
 pub fn rectify(
     positions: &[[f64; 3]],
     grid: &Grid,
-    edges: &[Result<EdgeFit, String>],
+    edges: &[EdgeResult],
     geometry: &[Option<EdgeGeometry>],
     corners: &[CornerFit],
     edge_of_run: &[Option<u32>],
@@ -96,14 +96,18 @@ pub fn rectify(
             for &i in &s.abnormal {
                 let i = i as usize;
                 out.label[i] = id;
-                if !params.enabled {
+                if !params.enabled || !e.zone_known {
                     continue;
                 }
                 let p = positions[i];
                 let (c, d) = g.nearest(p);
                 let faces = faces.map(|f| orthogonalise(f, d));
                 // Beyond the measured zone the scan is on its face already: leave it as read.
-                if along_face(p, c, d, &faces) > e.zone + zone_margin {
+                // The zone is measured along the faces; a point off both face traces (beside
+                // another surface near the edge) counts its whole distance from the edge, less
+                // what its noise may add across its face.
+                let off_face = across(p, c, d) - 2.0 * scale.noise;
+                if along_face(p, c, d, &faces).max(off_face) > e.zone + zone_margin {
                     continue;
                 }
                 let q = onto_traces(p, c, d, &faces);
@@ -120,7 +124,11 @@ pub fn rectify(
             .edges
             .iter()
             .copied()
-            .filter(|&k| geometry[k].is_some() && faces_of[k].is_some())
+            .filter(|&k| {
+                geometry[k].is_some()
+                    && faces_of[k].is_some()
+                    && edges[k].as_ref().is_ok_and(|e| e.zone_known)
+            })
             .collect();
         let zone = incident.iter().map(|&k| reach_of[k]).fold(0.0, f64::max);
         let radius = 2.5 * scale.radius + zone;
@@ -205,6 +213,12 @@ fn along_face(p: [f64; 3], c: [f64; 3], d: [f64; 3], faces: &[[f64; 3]; 2]) -> f
         .min_by(|a, b| a.0.total_cmp(&b.0))
         .map(|x| x.1)
         .unwrap_or(0.0)
+}
+
+/// Distance of `p` from the edge line through `c` along unit `d`.
+fn across(p: [f64; 3], c: [f64; 3], d: [f64; 3]) -> f64 {
+    let v = sub(p, c);
+    norm(sub(v, d.map(|x| x * dot(v, d))))
 }
 
 /// `p` moved within the plane perpendicular to `d` at edge point `c` onto the nearer of the

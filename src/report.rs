@@ -16,7 +16,7 @@ use serde::Serialize;
 use crate::cloud::{Attribute, Column};
 use crate::config::{Precision, Settings};
 use crate::corners::{CornerFit, EdgeGeometry};
-use crate::edges::EdgeFit;
+use crate::edges::EdgeResult;
 use crate::error::{Error, Result};
 use crate::io::{self, PlyWriteOptions};
 use crate::pipeline::{Outcome, Timing};
@@ -43,8 +43,11 @@ pub struct EdgeOut {
     /// Dihedral angle between the two faces, in degrees, when fitted.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub dihedral_deg: Option<f64>,
-    /// The edge as a polyline, start to end (two points for a straight edge).
+    /// The edge as a polyline, start to end (two points for a straight edge; a closed edge
+    /// ends where it starts).
     pub polyline: Vec<[f64; 3]>,
+    /// The edge goes round a closed curve (a hole's rim): `start` = `end`, no corners.
+    pub closed: bool,
     /// Rectified edge points (one per slab), not serialised in the report (features.ply has
     /// them).
     #[serde(skip)]
@@ -84,7 +87,7 @@ pub struct CornerOut {
 
 /// Turns the fits into the reported edges and corners.
 pub fn describe(
-    fits: &[Result<EdgeFit, String>],
+    fits: &[EdgeResult],
     geometry: &[Option<EdgeGeometry>],
     corners: &[CornerFit],
     edge_of_run: &[Option<u32>],
@@ -122,6 +125,7 @@ pub fn describe(
             convex: None,
             dihedral_deg: Some(f.dihedral_deg),
             polyline: g.polyline.clone(),
+            closed: f.closed,
             rectified,
             error: Some(FitErrors {
                 scheme1: sum(0),

@@ -19,8 +19,9 @@
 //! Then, in order: straight runs that overlap or continue each other along one line are
 //! merged (noise breaks a band into pieces); run ends that face each other across a small gap
 //! are joined; runs too sparse to be an edge's band are dropped; run ends whose end tangents
-//! pass close to each other meet at a vertex. A vertex where exactly two runs meet with a turn
-//! below `corner_angle` is no corner: the two runs are one edge bending there, and are joined.
+//! pass close to each other meet at a vertex. A vertex where no two runs leave at an angle
+//! between `corner_angle` and its supplement is no corner: runs meeting there with a bend
+//! below `corner_angle` are one edge, and are joined; what stays unjoined keeps free ends.
 
 use rayon::prelude::*;
 
@@ -306,9 +307,29 @@ pub fn segment(
         joins.len(),
         runs.len()
     );
+    let (runs, vertices) = connect(runs, positions, r, params);
+    for (k, run) in runs.iter().enumerate() {
+        for &p in &run.points {
+            label[p as usize] = k as u32;
+        }
+    }
+    Segments {
+        runs,
+        vertices,
+        label,
+    }
+}
+
+/// The vertices of a set of runs: ends grouped where they meet, runs that only bend there
+/// joined (then the remaining ends grouped again: their geometry is unchanged by a join),
+/// and what still does not turn dropped.
+fn connect(
+    runs: Vec<Run>,
+    positions: &[[f64; 3]],
+    r: f64,
+    params: &SegmentParams,
+) -> (Vec<Run>, Vec<Vertex>) {
     let (runs, vertices) = find_vertices(runs, r, params);
-    // Two runs meeting with a gentle turn are one bending edge: join them, then group the
-    // remaining ends again (their geometry is unchanged by the join).
     let smooth = smooth_vertices(&runs, &vertices, r, params);
     let (runs, vertices) = if smooth.is_empty() {
         (runs, vertices)
@@ -316,6 +337,65 @@ pub fn segment(
         let runs = chain(runs, &smooth, positions);
         find_vertices(runs, r, params)
     };
+    let (runs, vertices) = detach_duplicates(runs, vertices, r);
+    drop_straight_vertices(runs, vertices, r, params)
+}
+
+/// Two runs leaving a vertex within this angle of each other (degrees) run side by side: one
+/// is a stray piece along the other (a fillet's tangent line beside an arc), not a second edge
+/// of the corner. (The sharpest corner of a part, where a 30° wedge meets its end face, has
+/// its edges 30° apart.)
+const SAME_WAY: f64 = 15.0;
+
+/// Detaches from each vertex the ends of shorter runs that leave it the same way as a longer
+/// one (see [`SAME_WAY`]): such a pair has no corner between them, and a face only a sliver
+/// wide would keep the longer run's slabs far from the vertex.
+fn detach_duplicates(
+    mut runs: Vec<Run>,
+    mut vertices: Vec<Vertex>,
+    r: f64,
+) -> (Vec<Run>, Vec<Vertex>) {
+    let cos_same = SAME_WAY.to_radians().cos();
+    let lengths: Vec<f64> = runs.iter().map(Run::length).collect();
+    for (v, vertex) in vertices.iter_mut().enumerate() {
+        let mut ends = vertex.ends.clone();
+        ends.sort_by(|a, b| lengths[b.0].total_cmp(&lengths[a.0]).then(a.cmp(b)));
+        let mut kept: Vec<((usize, usize), [f64; 3])> = Vec::new();
+        for end in ends {
+            let t = runs[end.0].end(end.1, r).1;
+            if kept.iter().any(|(_, u)| dot(t, *u) > cos_same) {
+                if runs[end.0].vertices[end.1] == Some(v) {
+                    runs[end.0].vertices[end.1] = None;
+                }
+            } else {
+                kept.push((end, t));
+            }
+        }
+        vertex.ends.retain(|e| kept.iter().any(|(k, _)| k == e));
+    }
+    (runs, vertices)
+}
+
+/// `segments` without the runs marked in `drop` (runs the edge stage found to be no sharp
+/// edge: a fillet, a gently bending surface), their vertices found again: a virtual vertex
+/// where straight edges ran into a fillet's arc goes with the fillet's runs, and the edges
+/// of the part's own corners meet as they should.
+pub fn without_runs(
+    positions: &[[f64; 3]],
+    segments: Segments,
+    drop: &[bool],
+    scale: &Scale,
+    params: &SegmentParams,
+) -> Segments {
+    let runs: Vec<Run> = segments
+        .runs
+        .into_iter()
+        .zip(drop)
+        .filter(|(_, d)| !**d)
+        .map(|(run, _)| run)
+        .collect();
+    let (runs, vertices) = connect(runs, positions, scale.radius, params);
+    let mut label = vec![NO_RUN; segments.label.len()];
     for (k, run) in runs.iter().enumerate() {
         for &p in &run.points {
             label[p as usize] = k as u32;
@@ -805,21 +885,77 @@ fn continuation_joins(runs: &[Run], r: f64, params: &SegmentParams) -> Vec<Join>
     joins
 }
 
-/// Vertices where exactly two run ends meet with a turn below `corner_angle` (the angle
-/// between one run's end direction and the other's start direction): joins, not corners.
+/// The outward end tangents of a vertex's runs.
+fn end_tangents(runs: &[Run], v: &Vertex, r: f64) -> Vec<[f64; 3]> {
+    v.ends.iter().map(|&(k, e)| runs[k].end(e, r).1).collect()
+}
+
+/// Whether some two runs of a vertex leave it at an angle between `corner_angle` and its
+/// supplement: the edges turn there. Runs that only continue each other (or overlap) do not.
+fn turns(tangents: &[[f64; 3]], cos_corner: f64) -> bool {
+    (0..tangents.len())
+        .any(|i| (i + 1..tangents.len()).any(|j| dot(tangents[i], tangents[j]).abs() < cos_corner))
+}
+
+/// Joins at vertices where the runs do not turn (see [`turns`]): two runs meeting with a bend
+/// below `corner_angle`, or pieces of one curve whose ends met in a gap (a hole's rim broken
+/// in three). The most nearly opposite ends are joined first.
 fn smooth_vertices(runs: &[Run], vertices: &[Vertex], r: f64, params: &SegmentParams) -> Vec<Join> {
     let cos_corner = params.corner_angle.to_radians().cos();
-    vertices
+    let mut joins = Vec::new();
+    for v in vertices {
+        let t = end_tangents(runs, v, r);
+        if turns(&t, cos_corner) {
+            continue;
+        }
+        // Outward tangents: a straight continuation has them opposite.
+        let mut pairs: Vec<(f64, usize, usize)> = Vec::new();
+        for i in 0..t.len() {
+            for j in i + 1..t.len() {
+                let c = dot(t[i], t[j]);
+                if c <= -cos_corner && v.ends[i].0 != v.ends[j].0 {
+                    pairs.push((c, i, j));
+                }
+            }
+        }
+        pairs.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)).then(a.2.cmp(&b.2)));
+        let mut used = vec![false; t.len()];
+        for (_, i, j) in pairs {
+            if !used[i] && !used[j] {
+                used[i] = true;
+                used[j] = true;
+                joins.push((v.ends[i], v.ends[j]));
+            }
+        }
+    }
+    joins
+}
+
+/// Drops the vertices whose runs do not turn there (what [`smooth_vertices`] could not join:
+/// runs overlapping near one point): no corner.
+fn drop_straight_vertices(
+    mut runs: Vec<Run>,
+    vertices: Vec<Vertex>,
+    r: f64,
+    params: &SegmentParams,
+) -> (Vec<Run>, Vec<Vertex>) {
+    let cos_corner = params.corner_angle.to_radians().cos();
+    let keep: Vec<bool> = vertices
         .iter()
-        .filter(|v| v.ends.len() == 2)
-        .filter_map(|v| {
-            let (a, b) = (v.ends[0], v.ends[1]);
-            let ta = runs[a.0].end(a.1, r).1;
-            let tb = runs[b.0].end(b.1, r).1;
-            // Outward tangents: a straight continuation has them opposite.
-            (-dot(ta, tb) >= cos_corner).then_some((a, b))
-        })
-        .collect()
+        .map(|v| turns(&end_tangents(&runs, v, r), cos_corner))
+        .collect();
+    let mut id = vec![None; vertices.len()];
+    let mut kept = Vec::new();
+    for (v, vertex) in vertices.into_iter().enumerate() {
+        if keep[v] {
+            id[v] = Some(kept.len());
+            kept.push(vertex);
+        }
+    }
+    for run in &mut runs {
+        run.vertices = run.vertices.map(|v| v.and_then(|v| id[v]));
+    }
+    (runs, kept)
 }
 
 /// Joins runs end to end along `joins` into chains (a chain whose ends join is closed) and
