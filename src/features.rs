@@ -20,12 +20,13 @@
 //! A point is a candidate when either score stands out: thresholds are fixed statements about
 //! noise statistics and angles (relative to the cloud's own median), not per-scan tuning.
 
-use nalgebra::{Matrix3, SymmetricEigen};
 use rayon::prelude::*;
 
+use crate::eigen3;
+
 use crate::error::{Error, Result};
-use crate::neighbours::Grid;
-use crate::progress::{BATCH, Progress};
+use crate::neighbours::{Block, Grid};
+use crate::progress::Progress;
 
 /// Settings of the features stage (validated by `config`).
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
@@ -107,8 +108,8 @@ pub struct LocalPca {
     pub count: u32,
     /// Eigenvalues ascending.
     pub eigenvalues: [f64; 3],
-    /// Eigenvectors matching `eigenvalues`.
-    pub axes: [[f64; 3]; 3],
+    /// Unit eigenvector of the smallest eigenvalue: the normal of the best plane.
+    pub normal: [f64; 3],
     /// Centroid offset from the query point.
     pub centroid: [f64; 3],
 }
@@ -116,20 +117,27 @@ pub struct LocalPca {
 /// PCA of the points within `r` of `q`. `None` with fewer than 3 neighbours.
 pub fn local_pca(grid: &Grid, q: [f64; 3], r: f64) -> Option<LocalPca> {
     let mut m = [0.0f64; 10];
-    grid.for_each_within(q, r, |_, d, _| {
-        m[0] += 1.0;
-        m[1] += d[0];
-        m[2] += d[1];
-        m[3] += d[2];
-        m[4] += d[0] * d[0];
-        m[5] += d[0] * d[1];
-        m[6] += d[0] * d[2];
-        m[7] += d[1] * d[1];
-        m[8] += d[1] * d[2];
-        m[9] += d[2] * d[2];
-    });
+    grid.for_each_within(q, r, |_, d, _| add_moments(&mut m, d));
     pca_from_moments(&m)
 }
+
+/// Adds an offset to the raw moments [n, Σx, Σy, Σz, Σxx, Σxy, Σxz, Σyy, Σyz, Σzz].
+#[inline]
+fn add_moments(m: &mut [f64; 10], d: [f64; 3]) {
+    m[0] += 1.0;
+    m[1] += d[0];
+    m[2] += d[1];
+    m[3] += d[2];
+    m[4] += d[0] * d[0];
+    m[5] += d[0] * d[1];
+    m[6] += d[0] * d[2];
+    m[7] += d[1] * d[1];
+    m[8] += d[1] * d[2];
+    m[9] += d[2] * d[2];
+}
+
+/// Cells per unit of parallel work: a few thousand points.
+const BLOCK_CHUNK: usize = 256;
 
 /// PCA from raw moments [n, Σx, Σy, Σz, Σxx, Σxy, Σxz, Σyy, Σyz, Σzz] (offsets from the query,
 /// so the subtraction of the mean loses no precision at georeferenced magnitudes).
@@ -139,32 +147,19 @@ pub fn pca_from_moments(m: &[f64; 10]) -> Option<LocalPca> {
         return None;
     }
     let c = [m[1] / n, m[2] / n, m[3] / n];
-    let cov = Matrix3::new(
+    let cov = [
         m[4] / n - c[0] * c[0],
         m[5] / n - c[0] * c[1],
         m[6] / n - c[0] * c[2],
-        m[5] / n - c[0] * c[1],
         m[7] / n - c[1] * c[1],
         m[8] / n - c[1] * c[2],
-        m[6] / n - c[0] * c[2],
-        m[8] / n - c[1] * c[2],
         m[9] / n - c[2] * c[2],
-    );
-    let eig = SymmetricEigen::new(cov);
-    let mut order = [0usize, 1, 2];
-    order.sort_by(|&a, &b| eig.eigenvalues[a].total_cmp(&eig.eigenvalues[b]));
-    let eigenvalues = order.map(|i| eig.eigenvalues[i].max(0.0));
-    let axes = order.map(|i| {
-        let v = eig.eigenvectors.column(i);
-        [v[0], v[1], v[2]]
-    });
-    if !eigenvalues.iter().all(|v| v.is_finite()) {
-        return None;
-    }
+    ];
+    let (values, normal) = eigen3::smallest(&cov)?;
     Some(LocalPca {
         count: n as u32,
-        eigenvalues,
-        axes,
+        eigenvalues: values.map(|v| v.max(0.0)),
+        normal,
         centroid: c,
     })
 }
@@ -252,34 +247,41 @@ pub fn features(
     // Noise floor: never divide by less than a millionth of the spacing squared, so a
     // noise-free synthetic scan still gets finite scores.
     let var = (scale.noise * scale.noise).max(1e-6 * scale.spacing * scale.spacing);
-    // Work in the grid's spatial order for cache locality, write back by id.
-    let order = grid.spatial_order();
+    // Work cell by cell, in the grid's spatial order (cache locality, and the 27 cells around
+    // a cell found once for all its points); write back by id.
+    let blocks = grid.blocks();
+    let chunk = BLOCK_CHUNK;
 
     // Pass 1: plane fit of each neighbourhood.
     let mut normal = vec![[0.0f32; 3]; n];
     let mut sharpness = vec![0.0f32; n];
     let mut variation = vec![0.0f32; n];
     let mut count = vec![0u32; n];
-    let pass1: Vec<(u32, [f32; 3], f32, f32, u32)> = order
-        .par_chunks(BATCH)
-        .flat_map_iter(|chunk| {
-            let rows: Vec<_> = chunk
-                .iter()
-                .map(|&i| match local_pca(grid, positions[i as usize], r) {
-                    Some(p) => {
-                        let sum = p.eigenvalues.iter().sum::<f64>();
-                        let v = if sum > 0.0 {
-                            p.eigenvalues[0] / sum
-                        } else {
-                            0.0
-                        };
-                        let nrm = p.axes[0].map(|c| c as f32);
-                        (i, nrm, (p.eigenvalues[0] / var) as f32, v as f32, p.count)
-                    }
-                    None => (i, [0.0; 3], 0.0, 0.0, 1),
-                })
-                .collect();
-            progress.inc(chunk.len() as u64 / 2);
+    let pass1: Vec<(u32, [f32; 3], f32, f32, u32)> = blocks
+        .par_chunks(chunk)
+        .flat_map_iter(|blocks| {
+            let mut rows = Vec::new();
+            for block in blocks {
+                for &i in grid.slot_ids(block.slots.clone()) {
+                    let q = positions[i as usize];
+                    let mut m = [0.0f64; 10];
+                    grid.for_each_within_block(block, q, r, |_, d, _| add_moments(&mut m, d));
+                    rows.push(match pca_from_moments(&m) {
+                        Some(p) => {
+                            let sum = p.eigenvalues.iter().sum::<f64>();
+                            let v = if sum > 0.0 {
+                                p.eigenvalues[0] / sum
+                            } else {
+                                0.0
+                            };
+                            let nrm = p.normal.map(|c| c as f32);
+                            (i, nrm, (p.eigenvalues[0] / var) as f32, v as f32, p.count)
+                        }
+                        None => (i, [0.0; 3], 0.0, 0.0, 1),
+                    });
+                }
+            }
+            progress.inc(rows.len() as u64 / 2);
             rows.into_iter()
         })
         .collect();
@@ -297,17 +299,17 @@ pub fn features(
     let mut split = vec![0.0f32; n];
     let mut direction = vec![[0.0f32; 3]; n];
     let mut corner = vec![0.0f32; n];
-    let pass2: Vec<(u32, f32, [f32; 3], f32)> = order
-        .par_chunks(BATCH)
-        .flat_map_iter(|chunk| {
-            let rows: Vec<_> = chunk
-                .iter()
-                .map(|&i| {
-                    let (t, d) = normal_tensor(grid, &normal, positions[i as usize], r);
-                    (i, t[1] as f32, d.map(|c| c as f32), t[0] as f32)
-                })
-                .collect();
-            progress.inc(chunk.len() as u64 - chunk.len() as u64 / 2);
+    let pass2: Vec<(u32, f32, [f32; 3], f32)> = blocks
+        .par_chunks(chunk)
+        .flat_map_iter(|blocks| {
+            let mut rows = Vec::new();
+            for block in blocks {
+                for &i in grid.slot_ids(block.slots.clone()) {
+                    let (t, d) = normal_tensor(grid, block, &normal, positions[i as usize], r);
+                    rows.push((i, t[1] as f32, d.map(|c| c as f32), t[0] as f32));
+                }
+            }
+            progress.inc(rows.len() as u64 - rows.len() as u64 / 2);
             rows.into_iter()
         })
         .collect();
@@ -343,10 +345,16 @@ pub fn features(
 }
 
 /// Eigenvalues (ascending) of the mean normal tensor around `q`, and its smallest eigenvector.
-fn normal_tensor(grid: &Grid, normal: &[[f32; 3]], q: [f64; 3], r: f64) -> ([f64; 3], [f64; 3]) {
+fn normal_tensor(
+    grid: &Grid,
+    block: &Block,
+    normal: &[[f32; 3]],
+    q: [f64; 3],
+    r: f64,
+) -> ([f64; 3], [f64; 3]) {
     let mut t = [0.0f64; 6];
     let mut c = 0.0f64;
-    grid.for_each_within(q, r, |j, _, _| {
+    grid.for_each_within_block(block, q, r, |j, _, _| {
         let m = normal[j as usize].map(f64::from);
         t[0] += m[0] * m[0];
         t[1] += m[0] * m[1];
@@ -359,12 +367,10 @@ fn normal_tensor(grid: &Grid, normal: &[[f32; 3]], q: [f64; 3], r: f64) -> ([f64
     if c == 0.0 {
         return ([0.0; 3], [0.0; 3]);
     }
-    let m = Matrix3::new(t[0], t[1], t[2], t[1], t[3], t[4], t[2], t[4], t[5]) / c;
-    let eig = SymmetricEigen::new(m);
-    let mut o = [0usize, 1, 2];
-    o.sort_by(|&a, &b| eig.eigenvalues[a].total_cmp(&eig.eigenvalues[b]));
-    let d = eig.eigenvectors.column(o[0]);
-    (o.map(|k| eig.eigenvalues[k].max(0.0)), [d[0], d[1], d[2]])
+    match eigen3::smallest(&t.map(|x| x / c)) {
+        Some((values, d)) => (values.map(|v| v.max(0.0)), d),
+        None => ([0.0; 3], [0.0; 3]),
+    }
 }
 
 fn median_u32(v: &[u32]) -> u32 {

@@ -10,6 +10,7 @@ pub mod cloud;
 pub mod config;
 pub mod corners;
 pub mod edges;
+pub mod eigen3;
 pub mod error;
 pub mod experiment;
 pub mod features;

@@ -33,13 +33,29 @@ pub struct Grid {
     local: Vec<[f64; 3]>,
 }
 
+/// An occupied cell of a [`Grid`] and the slot ranges of the rows of its 3×3×3 block.
+pub struct Block {
+    /// Slots of the cell's own points (their ids: [`Grid::slot_ids`]).
+    pub slots: std::ops::Range<usize>,
+    rows: [(u32, u32); 9],
+    nrows: u8,
+}
+
 enum Layout {
     /// `starts[c]..starts[c + 1]` are the slots of cell `c`; used when the grid is not much
     /// larger than the cloud.
     Dense { starts: Vec<u32> },
     /// Non-empty cells only, sorted by key, for sparse clouds with a huge bounding box
-    /// (outliers, lidar strips).
-    Sparse { keys: Vec<u64>, starts: Vec<u32> },
+    /// (outliers, lidar strips), and scanned surfaces, which fill few of their box's cells.
+    /// `rows[row]` is the index of the first non-empty cell of each row (cells with the same
+    /// y and z), when there are not too many rows for such a table: a query then looks at its
+    /// row's few cells instead of binary-searching all of them (the search took 40 % of the
+    /// features stage on a 1,000,000-point box).
+    Sparse {
+        keys: Vec<u64>,
+        starts: Vec<u32>,
+        rows: Option<Vec<u32>>,
+    },
 }
 
 impl Grid {
@@ -125,11 +141,24 @@ impl Grid {
                 }
             }
             starts.push(ids.len() as u32);
+            let nrows = dims[1].saturating_mul(dims[2]);
+            let rows = (nrows <= (4 * positions.len() as u64).max(1 << 20)).then(|| {
+                let mut rows = vec![0u32; nrows as usize + 1];
+                let mut next = 0usize;
+                for (row, slot) in rows.iter_mut().enumerate() {
+                    while next < ukeys.len() && ukeys[next] / dims[0] < row as u64 {
+                        next += 1;
+                    }
+                    *slot = next as u32;
+                }
+                rows
+            });
             (
                 ids,
                 Layout::Sparse {
                     keys: ukeys,
                     starts,
+                    rows,
                 },
             )
         };
@@ -159,6 +188,84 @@ impl Grid {
     /// queries on neighbouring memory.
     pub fn spatial_order(&self) -> &[u32] {
         &self.ids
+    }
+
+    /// Point ids of a range of slots (see [`Block::slots`]).
+    pub fn slot_ids(&self, slots: std::ops::Range<usize>) -> &[u32] {
+        &self.ids[slots]
+    }
+
+    /// Every occupied cell in slot order, with the slot ranges of the 27 cells around it:
+    /// all the queries from one cell's points look at the same cells, and finding them once
+    /// per cell instead of once per query took the features stage of a 1,000,000-point box
+    /// from 1.05 s to 0.79 s on 2 threads.
+    pub fn blocks(&self) -> Vec<Block> {
+        let cells: Vec<(u64, usize, usize)> = match &self.layout {
+            Layout::Dense { starts } => (0..starts.len() - 1)
+                .filter(|&c| starts[c] < starts[c + 1])
+                .map(|c| (c as u64, starts[c] as usize, starts[c + 1] as usize))
+                .collect(),
+            Layout::Sparse { keys, starts, .. } => (0..keys.len())
+                .map(|i| (keys[i], starts[i] as usize, starts[i + 1] as usize))
+                .collect(),
+        };
+        cells
+            .par_iter()
+            .map(|&(key, a, b)| {
+                let c = [
+                    (key % self.dims[0]) as i64,
+                    ((key / self.dims[0]) % self.dims[1]) as i64,
+                    (key / (self.dims[0] * self.dims[1])) as i64,
+                ];
+                let (x0, x1) = ((c[0] - 1).max(0), (c[0] + 1).min(self.dims[0] as i64 - 1));
+                let mut rows = [(0u32, 0u32); 9];
+                let mut nrows = 0;
+                for z in (c[2] - 1).max(0)..=(c[2] + 1).min(self.dims[2] as i64 - 1) {
+                    for y in (c[1] - 1).max(0)..=(c[1] + 1).min(self.dims[1] as i64 - 1) {
+                        let row = (z as u64 * self.dims[1] + y as u64) * self.dims[0];
+                        let (s0, s1) = self.slots(row + x0 as u64, row + x1 as u64);
+                        if s0 < s1 {
+                            rows[nrows] = (s0 as u32, s1 as u32);
+                            nrows += 1;
+                        }
+                    }
+                }
+                Block {
+                    slots: a..b,
+                    rows,
+                    nrows: nrows as u8,
+                }
+            })
+            .collect()
+    }
+
+    /// [`Self::for_each_within`] for a query `q` inside `block`'s cell (one of its points),
+    /// using the block's slot ranges. Needs `r <= cell()`. Same calls in the same order.
+    #[inline]
+    pub fn for_each_within_block(
+        &self,
+        block: &Block,
+        q: [f64; 3],
+        r: f64,
+        mut f: impl FnMut(u32, [f64; 3], f64),
+    ) {
+        debug_assert!(r <= self.cell * (1.0 + 1e-12));
+        let ql = [
+            q[0] - self.origin[0],
+            q[1] - self.origin[1],
+            q[2] - self.origin[2],
+        ];
+        let r2 = r * r;
+        for &(a, b) in &block.rows[..block.nrows as usize] {
+            for s in a as usize..b as usize {
+                let p = self.local[s];
+                let d = [p[0] - ql[0], p[1] - ql[1], p[2] - ql[2]];
+                let d2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+                if d2 <= r2 {
+                    f(self.ids[s], d, d2);
+                }
+            }
+        }
     }
 
     /// Calls `f(id, offset, squared_distance)` for every point within `r` of `q` (inclusive),
@@ -275,9 +382,18 @@ impl Grid {
                 starts[k0 as usize] as usize,
                 starts[k1 as usize + 1] as usize,
             ),
-            Layout::Sparse { keys, starts } => {
-                let a = keys.partition_point(|&k| k < k0);
-                let b = a + keys[a..].partition_point(|&k| k <= k1);
+            Layout::Sparse { keys, starts, rows } => {
+                // Within one row (k0 and k1 always share one): its cells only.
+                let (lo, hi) = match rows {
+                    Some(rows) => {
+                        let row = (k0 / self.dims[0]) as usize;
+                        (rows[row] as usize, rows[row + 1] as usize)
+                    }
+                    None => (0, keys.len()),
+                };
+                let cells = &keys[lo..hi];
+                let a = lo + cells.partition_point(|&k| k < k0);
+                let b = a + keys[a..hi].partition_point(|&k| k <= k1);
                 (starts[a] as usize, starts[b] as usize)
             }
         }
