@@ -195,7 +195,8 @@ fn truncated_ascii_ply_body() {
         &e,
         &[
             &format!("line {} (vertex 6 of 10)", header_lines + 7),
-            "cannot read the values",
+            "the file ends inside this vertex's line",
+            "truncated",
         ],
     );
 }
@@ -405,17 +406,75 @@ fn non_finite_coordinates_reject_or_drop() {
     assert_eq!(c.attributes[0].values, Column::F64(vec![7.0, 10.0]));
 }
 
+/// Regression (issue 2): ply-rs-bw's ascii grammar has no spelling for NaN, so an ascii PLY
+/// with invalid points written as `nan` (as PCL writes them) failed to parse instead of
+/// obeying `input.non_finite`.
 #[test]
-fn ascii_ply_nan_tokens_are_a_clear_parse_error() {
-    // ply-rs-bw's ascii grammar has no spelling for NaN: the line is reported, not misread.
+fn ascii_ply_nan_tokens_reject_or_drop_like_binary_ones() {
     let dir = tempfile::tempdir().unwrap();
     let p = write(
         dir.path(),
         "nan_ascii.ply",
-        b"ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\nproperty float z\nend_header\n0 0 0\nnan 0 0\n",
+        b"ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\nproperty uchar k\nend_header\n0 0 0 1\nnan 0 0 2\n2 -inf 0 3\n3 0 -nan 4\n",
     );
     let e = message(read(&p), &p);
-    assert_contains(&e, &["line 9 (vertex 1 of 2)", "cannot read the values"]);
+    assert_contains(
+        &e,
+        &["point 1 (0-based", "3 of 4 points are NaN or infinite"],
+    );
+    let drop = ReadOptions {
+        non_finite: NonFinite::Drop,
+    };
+    let c = io::read(&p, &drop).unwrap();
+    assert_eq!(c.positions, vec![[0.0; 3]]);
+    assert_eq!(c.attributes[0].values, Column::U8(vec![1]));
+}
+
+/// A bad token names its line, vertex, property and type; so do short and long lines and an
+/// integer out of its type's range.
+#[test]
+fn ascii_ply_bad_values_name_line_vertex_and_property() {
+    let dir = tempfile::tempdir().unwrap();
+    let head = "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\nproperty float z\nproperty uchar k\nend_header\n";
+    for (body, want) in [
+        (
+            "0 0 0 1\n1 abc 0 2\n",
+            vec![
+                "line 10 (vertex 1 of 2)",
+                "cannot read `abc` as the float property `y`",
+            ],
+        ),
+        (
+            "0 0 0 1\n1 0 0\n",
+            vec![
+                "line 10 (vertex 1 of 2)",
+                "the line ends before property `k`",
+            ],
+        ),
+        (
+            "0 0 0 1 9\n1 0 0 2\n",
+            vec!["line 9 (vertex 0 of 2)", "`9` after the 4 values"],
+        ),
+        (
+            "0 0 0 256\n1 0 0 2\n",
+            vec![
+                "line 9 (vertex 0 of 2)",
+                "cannot read `256` as the uchar property `k`",
+            ],
+        ),
+        (
+            "0 0 0 1\n",
+            vec!["line 10 (vertex 1 of 2)", "the file ends here"],
+        ),
+    ] {
+        let p = write(
+            dir.path(),
+            "bad_ascii.ply",
+            format!("{head}{body}").as_bytes(),
+        );
+        let e = message(read(&p), &p);
+        assert_contains(&e, &want);
+    }
 }
 
 // ---- LAS / LAZ ------------------------------------------------------------------------------

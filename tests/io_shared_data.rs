@@ -245,7 +245,7 @@ fn ply_content_matches_sources() {
 }
 
 #[test]
-fn binary_fast_path_matches_the_crate_on_every_ply() {
+fn fast_paths_match_the_crate_on_every_ply() {
     let Some(d) = data_dir() else { return };
     for (name, _) in COUNTS.iter().filter(|(n, _)| n.ends_with(".ply")) {
         let p = d.join(name);

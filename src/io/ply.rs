@@ -7,8 +7,10 @@
 //! * in binary files by a hand-written column decoder ([`read_binary_vertices`]): the crate's
 //!   typed path measured ~6–7x a plain read of the bytes on a 5M-point file, over the
 //!   required 6x, the decoder ~1.8x (benches/read.rs);
-//! * in ascii files by the crate's typed path (`PropertyAccess` on [`VertexRec`], read in
-//!   chunks of [`CHUNK`]).
+//! * in ascii files by a hand-written line decoder ([`read_ascii_vertices`]), whose float
+//!   syntax takes `nan` and `inf` (invalid points as PCL writes them), which the crate's
+//!   grammar refuses. The crate's typed path (`PropertyAccess` on [`VertexRec`], read in
+//!   chunks of [`CHUNK`]) is kept as the reference both decoders are tested against.
 //!
 //! x, y, z become f64 positions; every other vertex property becomes an [`Attribute`] with
 //! its own type and name. The crate's generic per-vertex property maps are never used (one
@@ -342,8 +344,7 @@ fn body_error(
 /// How the vertex element is decoded.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) enum VertexPath {
-    /// Binary files: the hand-written column decoder ([`read_binary_vertices`]); ascii files:
-    /// the crate's typed path.
+    /// The hand-written decoders: [`read_binary_vertices`], [`read_ascii_vertices`].
     Fast,
     /// Always the crate's typed path (kept as the reference the fast path is tested against).
     Crate,
@@ -423,7 +424,18 @@ pub(crate) fn read(path: &Path, path_choice: VertexPath) -> Result<Loaded> {
     } else {
         Progress::hidden()
     };
-    if path_choice == VertexPath::Fast && header.encoding != Encoding::Ascii {
+    if path_choice == VertexPath::Fast && header.encoding == Encoding::Ascii {
+        let first_line = reader.line();
+        read_ascii_vertices(
+            reader.get_mut(),
+            path,
+            &vertex_def,
+            first_line,
+            &mut positions,
+            &mut columns,
+            &progress,
+        )?;
+    } else if path_choice == VertexPath::Fast {
         let big_endian = header.encoding == Encoding::BinaryBigEndian;
         read_binary_vertices(
             reader.get_mut(),
@@ -636,6 +648,146 @@ fn read_binary_vertices(
         done += m;
         progress.inc(m as u64);
     }
+    Ok(())
+}
+
+/// Decodes the ascii `vertex` element line by line: one vertex a line, its values separated
+/// by whitespace, each parsed as its property's type. Floats take every spelling Rust's
+/// parser does, `nan`, `-nan`, `inf` and `infinity` included (the crate's grammar refused
+/// them, so a scan with invalid points stored as NaN, as PCL writes them, could not be read
+/// and dropped), integers must fit their type. `first_line` is the file line of vertex 0.
+fn read_ascii_vertices(
+    r: &mut impl std::io::BufRead,
+    path: &Path,
+    def: &ElementDef,
+    first_line: usize,
+    positions: &mut Vec<[f64; 3]>,
+    columns: &mut [Column],
+    progress: &Progress,
+) -> Result<()> {
+    let mut fields: Vec<(&str, ScalarType, Option<usize>)> = Vec::new();
+    let mut extra = 0;
+    for (name, p) in &def.properties {
+        let PropertyType::Scalar(t) = &p.data_type else {
+            return Err(Error::malformed(
+                path,
+                "header, element vertex",
+                format!("vertex property `{name}` is a list"),
+            ));
+        };
+        let coord = match name.as_str() {
+            "x" => Some(0),
+            "y" => Some(1),
+            "z" => Some(2),
+            _ => None,
+        };
+        fields.push((name.as_str(), t.clone(), coord));
+        if coord.is_none() {
+            extra += 1;
+        }
+    }
+    debug_assert_eq!(extra, columns.len());
+    let n = def.count;
+    let mut line = String::new();
+    for i in 0..n {
+        line.clear();
+        let got = r
+            .read_line(&mut line)
+            .map_err(|e| Error::io(path, "cannot read", e))?;
+        let place = || format!("line {} (vertex {i} of {n})", first_line + i);
+        // A bad value on a last line without its newline is the file cut off, not bad data.
+        let cut = !line.ends_with('\n');
+        let malformed = |what: String| {
+            if cut {
+                Error::malformed(
+                    path,
+                    place(),
+                    format!(
+                        "the file ends inside this vertex's line, but the header declares {n} \
+                         `vertex` items: the file is truncated"
+                    ),
+                )
+            } else {
+                Error::malformed(path, place(), what)
+            }
+        };
+        if got == 0 {
+            return Err(Error::malformed(
+                path,
+                place(),
+                format!(
+                    "the file ends here, but the header declares {n} `vertex` items: the file \
+                     is truncated or its header promises more than the body holds"
+                ),
+            ));
+        }
+        let mut tokens = line.split_ascii_whitespace();
+        let mut p = [0.0f64; 3];
+        let mut col = 0;
+        for (name, t, coord) in &fields {
+            let Some(tok) = tokens.next() else {
+                return Err(malformed(format!(
+                    "the line ends before property `{name}`: the header declares {} values a \
+                     vertex",
+                    fields.len()
+                )));
+            };
+            let bad = || {
+                malformed(format!(
+                    "cannot read `{tok}` as the {} property `{name}`",
+                    scalar_name(t)
+                ))
+            };
+            macro_rules! int {
+                ($ty:ty) => {{
+                    let v: $ty = tok.parse().map_err(|_| bad())?;
+                    v
+                }};
+            }
+            match coord {
+                Some(k) => {
+                    p[*k] = match t {
+                        ScalarType::Float => f64::from(tok.parse::<f32>().map_err(|_| bad())?),
+                        ScalarType::Double => tok.parse::<f64>().map_err(|_| bad())?,
+                        ScalarType::Char => f64::from(int!(i8)),
+                        ScalarType::UChar => f64::from(int!(u8)),
+                        ScalarType::Short => f64::from(int!(i16)),
+                        ScalarType::UShort => f64::from(int!(u16)),
+                        ScalarType::Int => f64::from(int!(i32)),
+                        ScalarType::UInt => f64::from(int!(u32)),
+                    }
+                }
+                None => {
+                    match &mut columns[col] {
+                        Column::I8(v) => v.push(int!(i8)),
+                        Column::U8(v) => v.push(int!(u8)),
+                        Column::I16(v) => v.push(int!(i16)),
+                        Column::U16(v) => v.push(int!(u16)),
+                        Column::I32(v) => v.push(int!(i32)),
+                        Column::U32(v) => v.push(int!(u32)),
+                        Column::F32(v) => v.push(tok.parse::<f32>().map_err(|_| bad())?),
+                        Column::F64(v) => v.push(tok.parse::<f64>().map_err(|_| bad())?),
+                    }
+                    col += 1;
+                }
+            }
+        }
+        if let Some(tok) = tokens.next() {
+            return Err(Error::malformed(
+                path,
+                place(),
+                format!(
+                    "`{tok}` after the {} values the header declares for a vertex",
+                    fields.len()
+                ),
+            ));
+        }
+        positions.push(p);
+        if (i + 1) % CHUNK == 0 {
+            progress.inc(CHUNK as u64);
+        }
+    }
+    progress.inc((n % CHUNK) as u64);
     Ok(())
 }
 
