@@ -34,6 +34,10 @@ const TANGENT_HALF: f64 = 2.5;
 /// rectified points an edge anyway.
 const MIN_SLABS: usize = 3;
 
+/// The smallest dihedral angle of an edge, in degrees (a part's sharpest edges, knife
+/// edges, are tens of degrees).
+const MIN_DIHEDRAL: f64 = 10.0;
+
 /// Settings of the edge stage (validated by `config`).
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct EdgeParams {
@@ -471,10 +475,23 @@ fn fit_run(
         rms / scale.spacing,
         if straight { "straight" } else { "curved" }
     );
+    // Faces folding back onto each other at a few degrees are no part's edge but a misfit
+    // (both sides on one face): seen on the anchor as a 3.6° "edge" 1.6 spacings long.
+    if dihedral_deg < MIN_DIHEDRAL {
+        return Err(EdgeError::NotAnEdge(format!(
+            "edge {k}: its faces meet at {dihedral_deg:.1}°, less than {MIN_DIHEDRAL}°: both \
+             sides lie on one surface; left out"
+        )));
+    }
     // A fillet is no sharp edge: the zone where the scan leaves the faces is the tangent
     // length t = R / tan(β/2) of a rounding of radius R between faces at the interior angle β
     // (a box's 1.5-spacing scanner rounding: t = 1.5; a 30° wedge's: t = 5.6, R still 1.5).
-    let rounding = zone_raw * (0.5 * dihedral_deg.to_radians()).tan();
+    // The zone's outer end is known to a bin (half a spacing), and tan(β/2) amplifies that
+    // at obtuse angles (2.4x at 135°): the radius taken is the one of the zone less a bin, so
+    // a noisy zone never turns a sharp obtuse edge into a fillet (seen: an octagonal prism's
+    // edge at 6.0 spacings).
+    let rounding =
+        (zone_raw - 0.5 * scale.spacing).max(0.0) * (0.5 * dihedral_deg.to_radians()).tan();
     if rounding > params.max_rounding * scale.spacing {
         return Err(EdgeError::NotAnEdge(format!(
             "edge {k}: its faces meet through a rounding of radius {:.1} spacings, more than \

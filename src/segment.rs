@@ -899,12 +899,26 @@ fn turns(tangents: &[[f64; 3]], cos_corner: f64) -> bool {
 
 /// Joins at vertices where the runs do not turn (see [`turns`]): two runs meeting with a bend
 /// below `corner_angle`, or pieces of one curve whose ends met in a gap (a hole's rim broken
-/// in three). The most nearly opposite ends are joined first.
+/// in three). The most nearly opposite ends are joined first. Two runs alone at a vertex are
+/// a bend as long as their turn stays below `corner_angle` plus what the tightest curve the
+/// growth follows (`turn_angle` per radius) turns across the gap between their ends: an arc
+/// broken where it is tightest turns there without a corner.
 fn smooth_vertices(runs: &[Run], vertices: &[Vertex], r: f64, params: &SegmentParams) -> Vec<Join> {
     let cos_corner = params.corner_angle.to_radians().cos();
     let mut joins = Vec::new();
     for v in vertices {
         let t = end_tangents(runs, v, r);
+        if v.ends.len() == 2 && v.ends[0].0 != v.ends[1].0 {
+            let (a, b) = (v.ends[0], v.ends[1]);
+            let gap = norm(sub(runs[a.0].end(a.1, r).0, runs[b.0].end(b.1, r).0));
+            let allowed =
+                params.corner_angle.to_radians() + params.turn_angle.to_radians() * gap / r;
+            let turn = (-dot(t[0], t[1])).clamp(-1.0, 1.0).acos();
+            if turn < allowed.min(std::f64::consts::FRAC_PI_2) {
+                joins.push((a, b));
+            }
+            continue;
+        }
         if turns(&t, cos_corner) {
             continue;
         }

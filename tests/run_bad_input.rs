@@ -214,13 +214,15 @@ fn non_finite_coordinates_are_rejected_by_default() {
         &["nan.xyz: point 17 (0-based, in file order) has a non-finite coordinate"],
         &c.out(),
     );
-    // ascii PLY: the reader does not parse `nan` at all, so this fails as unreadable values,
-    // with the line and the vertex (and `non_finite = "drop"` cannot help; see the report).
+    // The same in an ascii PLY (its `nan` tokens once failed to parse at all).
     c.write("nan_ascii.ply", &ascii_ply(&pts[..100]));
     let r = c.run("nan_ascii.ply", &[]);
     assert_failed_cleanly(
         &r,
-        &["nan_ascii.ply: line 25 (vertex 17 of 100): cannot read the values"],
+        &[
+            "nan_ascii.ply: point 17 (0-based, in file order) has a non-finite coordinate",
+            "3 of 100 points are NaN or infinite",
+        ],
         &c.out(),
     );
 }
