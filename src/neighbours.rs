@@ -255,15 +255,26 @@ impl Grid {
             q[1] - self.origin[1],
             q[2] - self.origin[2],
         ];
-        let r2 = r * r;
         for &(a, b) in &block.rows[..block.nrows as usize] {
-            for s in a as usize..b as usize {
-                let p = self.local[s];
-                let d = [p[0] - ql[0], p[1] - ql[1], p[2] - ql[2]];
-                let d2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-                if d2 <= r2 {
-                    f(self.ids[s], d, d2);
-                }
+            self.scan(a as usize..b as usize, ql, r * r, &mut f);
+        }
+    }
+
+    /// Calls `f` for the points of `slots` within `sqrt(r2)` of the local point `ql`.
+    #[inline]
+    fn scan(
+        &self,
+        slots: std::ops::Range<usize>,
+        ql: [f64; 3],
+        r2: f64,
+        f: &mut impl FnMut(u32, [f64; 3], f64),
+    ) {
+        for s in slots {
+            let p = self.local[s];
+            let d = [p[0] - ql[0], p[1] - ql[1], p[2] - ql[2]];
+            let d2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+            if d2 <= r2 {
+                f(self.ids[s], d, d2);
             }
         }
     }
@@ -289,14 +300,7 @@ impl Grid {
             for y in (c[1] - 1).max(0)..=(c[1] + 1).min(self.dims[1] as i64 - 1) {
                 let row = (z as u64 * self.dims[1] + y as u64) * self.dims[0];
                 let (a, b) = self.slots(row + x0 as u64, row + x1 as u64);
-                for s in a..b {
-                    let p = self.local[s];
-                    let d = [p[0] - ql[0], p[1] - ql[1], p[2] - ql[2]];
-                    let d2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-                    if d2 <= r2 {
-                        f(self.ids[s], d, d2);
-                    }
-                }
+                self.scan(a..b, ql, r2, &mut f);
             }
         }
     }

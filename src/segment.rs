@@ -194,6 +194,23 @@ pub struct Segments {
     pub label: Vec<u32>,
 }
 
+impl Segments {
+    /// Runs and vertices of a cloud of `n` points, with each point's run label.
+    fn new(runs: Vec<Run>, vertices: Vec<Vertex>, n: usize) -> Segments {
+        let mut label = vec![NO_RUN; n];
+        for (k, run) in runs.iter().enumerate() {
+            for &p in &run.points {
+                label[p as usize] = k as u32;
+            }
+        }
+        Segments {
+            runs,
+            vertices,
+            label,
+        }
+    }
+}
+
 /// Finds the edge runs and vertices of a cloud.
 pub fn segment(
     positions: &[[f64; 3]],
@@ -210,21 +227,12 @@ pub fn segment(
                     <= params.corner_ratio * f64::from(features.split[i])
         })
         .collect();
-    let mut label = vec![NO_RUN; positions.len()];
     if cand.len() < 3 {
-        return Segments {
-            runs: Vec::new(),
-            vertices: Vec::new(),
-            label,
-        };
+        return Segments::new(Vec::new(), Vec::new(), positions.len());
     }
     let cand_pos: Vec<[f64; 3]> = cand.iter().map(|&i| positions[i as usize]).collect();
     let Ok(grid) = Grid::new(&cand_pos, r) else {
-        return Segments {
-            runs: Vec::new(),
-            vertices: Vec::new(),
-            label,
-        };
+        return Segments::new(Vec::new(), Vec::new(), positions.len());
     };
     let dirs: Vec<[f64; 3]> = cand
         .iter()
@@ -308,16 +316,7 @@ pub fn segment(
         runs.len()
     );
     let (runs, vertices) = connect(runs, positions, r, params);
-    for (k, run) in runs.iter().enumerate() {
-        for &p in &run.points {
-            label[p as usize] = k as u32;
-        }
-    }
-    Segments {
-        runs,
-        vertices,
-        label,
-    }
+    Segments::new(runs, vertices, positions.len())
 }
 
 /// The vertices of a set of runs: ends grouped where they meet, runs that only bend there
@@ -395,17 +394,7 @@ pub fn without_runs(
         .map(|(run, _)| run)
         .collect();
     let (runs, vertices) = connect(runs, positions, scale.radius, params);
-    let mut label = vec![NO_RUN; segments.label.len()];
-    for (k, run) in runs.iter().enumerate() {
-        for &p in &run.points {
-            label[p as usize] = k as u32;
-        }
-    }
-    Segments {
-        runs,
-        vertices,
-        label,
-    }
+    Segments::new(runs, vertices, segments.label.len())
 }
 
 /// Marks the agreeing candidates on an accepted run's flanks as taken: the run's band is

@@ -545,33 +545,12 @@ fn read_binary_vertices(
     columns: &mut [Column],
     progress: &Progress,
 ) -> Result<()> {
-    enum Role {
-        Coord(usize),
-        Extra(usize),
-    }
     let mut fields = Vec::new();
     let mut stride = 0;
-    let mut extra = 0;
-    for (name, p) in &def.properties {
-        let PropertyType::Scalar(t) = &p.data_type else {
-            // vertex_layout rejects these before any body is read.
-            return Err(Error::malformed(
-                path,
-                "header, element vertex",
-                format!("vertex property `{name}` is a list"),
-            ));
-        };
-        let role = match name.as_str() {
-            "x" => Role::Coord(0),
-            "y" => Role::Coord(1),
-            "z" => Role::Coord(2),
-            _ => {
-                extra += 1;
-                Role::Extra(extra - 1)
-            }
-        };
-        fields.push((role, t.clone(), stride));
-        stride += scalar_size(t);
+    for f in vertex_fields(path, def)? {
+        let size = scalar_size(&f.ty);
+        fields.push((f.role, f.ty, stride));
+        stride += size;
     }
     let n = def.count;
     let mut buf = Vec::new();
@@ -651,6 +630,52 @@ fn read_binary_vertices(
     Ok(())
 }
 
+/// Where a vertex property's values go: a coordinate (0, 1, 2 for x, y, z) or an extra
+/// attribute column (in header order).
+enum Role {
+    Coord(usize),
+    Extra(usize),
+}
+
+/// One property of the vertex element, as both decoders read it.
+struct Field<'a> {
+    name: &'a str,
+    ty: ScalarType,
+    role: Role,
+}
+
+/// The vertex element's properties in header order with their roles; list properties are an
+/// error (`vertex_layout` rejects them before any body is read).
+fn vertex_fields<'a>(path: &Path, def: &'a ElementDef) -> Result<Vec<Field<'a>>> {
+    let mut extra = 0;
+    def.properties
+        .iter()
+        .map(|(name, p)| {
+            let PropertyType::Scalar(t) = &p.data_type else {
+                return Err(Error::malformed(
+                    path,
+                    "header, element vertex",
+                    format!("vertex property `{name}` is a list"),
+                ));
+            };
+            let role = match name.as_str() {
+                "x" => Role::Coord(0),
+                "y" => Role::Coord(1),
+                "z" => Role::Coord(2),
+                _ => {
+                    extra += 1;
+                    Role::Extra(extra - 1)
+                }
+            };
+            Ok(Field {
+                name: name.as_str(),
+                ty: t.clone(),
+                role,
+            })
+        })
+        .collect()
+}
+
 /// Decodes the ascii `vertex` element line by line: one vertex a line, its values separated
 /// by whitespace, each parsed as its property's type. Floats take every spelling Rust's
 /// parser does, `nan`, `-nan`, `inf` and `infinity` included (the crate's grammar refused
@@ -665,28 +690,7 @@ fn read_ascii_vertices(
     columns: &mut [Column],
     progress: &Progress,
 ) -> Result<()> {
-    let mut fields: Vec<(&str, ScalarType, Option<usize>)> = Vec::new();
-    let mut extra = 0;
-    for (name, p) in &def.properties {
-        let PropertyType::Scalar(t) = &p.data_type else {
-            return Err(Error::malformed(
-                path,
-                "header, element vertex",
-                format!("vertex property `{name}` is a list"),
-            ));
-        };
-        let coord = match name.as_str() {
-            "x" => Some(0),
-            "y" => Some(1),
-            "z" => Some(2),
-            _ => None,
-        };
-        fields.push((name.as_str(), t.clone(), coord));
-        if coord.is_none() {
-            extra += 1;
-        }
-    }
-    debug_assert_eq!(extra, columns.len());
+    let fields = vertex_fields(path, def)?;
     let n = def.count;
     let mut line = String::new();
     for i in 0..n {
@@ -723,8 +727,7 @@ fn read_ascii_vertices(
         }
         let mut tokens = line.split_ascii_whitespace();
         let mut p = [0.0f64; 3];
-        let mut col = 0;
-        for (name, t, coord) in &fields {
+        for Field { name, ty: t, role } in &fields {
             let Some(tok) = tokens.next() else {
                 return Err(malformed(format!(
                     "the line ends before property `{name}`: the header declares {} values a \
@@ -744,8 +747,8 @@ fn read_ascii_vertices(
                     v
                 }};
             }
-            match coord {
-                Some(k) => {
+            match role {
+                Role::Coord(k) => {
                     p[*k] = match t {
                         ScalarType::Float => f64::from(tok.parse::<f32>().map_err(|_| bad())?),
                         ScalarType::Double => tok.parse::<f64>().map_err(|_| bad())?,
@@ -757,19 +760,16 @@ fn read_ascii_vertices(
                         ScalarType::UInt => f64::from(int!(u32)),
                     }
                 }
-                None => {
-                    match &mut columns[col] {
-                        Column::I8(v) => v.push(int!(i8)),
-                        Column::U8(v) => v.push(int!(u8)),
-                        Column::I16(v) => v.push(int!(i16)),
-                        Column::U16(v) => v.push(int!(u16)),
-                        Column::I32(v) => v.push(int!(i32)),
-                        Column::U32(v) => v.push(int!(u32)),
-                        Column::F32(v) => v.push(tok.parse::<f32>().map_err(|_| bad())?),
-                        Column::F64(v) => v.push(tok.parse::<f64>().map_err(|_| bad())?),
-                    }
-                    col += 1;
-                }
+                Role::Extra(col) => match &mut columns[*col] {
+                    Column::I8(v) => v.push(int!(i8)),
+                    Column::U8(v) => v.push(int!(u8)),
+                    Column::I16(v) => v.push(int!(i16)),
+                    Column::U16(v) => v.push(int!(u16)),
+                    Column::I32(v) => v.push(int!(i32)),
+                    Column::U32(v) => v.push(int!(u32)),
+                    Column::F32(v) => v.push(tok.parse::<f32>().map_err(|_| bad())?),
+                    Column::F64(v) => v.push(tok.parse::<f64>().map_err(|_| bad())?),
+                },
             }
         }
         if let Some(tok) = tokens.next() {
