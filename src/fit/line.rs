@@ -26,7 +26,7 @@ pub type Line2 = Line<2>;
 pub type Line3 = Line<3>;
 
 impl<const D: usize> Default for Line<D> {
-    /// A placeholder line (origin, along the first axis) for buffers that are filled later.
+    /// The default line (through the origin, along the first axis), for buffers filled later.
     fn default() -> Self {
         let mut direction = [0.0; D];
         if D > 0 {
