@@ -134,36 +134,23 @@ impl Run {
                 (point, tangent)
             }
             None => {
-                let p = if e == 0 {
-                    self.centreline.first()
-                } else {
-                    self.centreline.last()
-                }
-                .copied()
-                .unwrap_or(self.origin);
+                let (first, last) = (
+                    self.centreline.first().copied().unwrap_or(self.origin),
+                    self.centreline.last().copied().unwrap_or(self.origin),
+                );
+                let (p, other) = if e == 0 { (first, last) } else { (last, first) };
                 let v = sub(p, self.origin);
                 let on = add(
                     self.origin,
                     self.direction.map(|c| c * dot(v, self.direction)),
                 );
-                let out = if e == 0 {
+                // The best line is unoriented: point it out of this end.
+                let out = if dot(sub(p, other), self.direction) < 0.0 {
                     neg(self.direction)
                 } else {
                     self.direction
                 };
-                // The best line is unoriented: point it out of this end.
-                let other = if e == 0 {
-                    self.centreline.last()
-                } else {
-                    self.centreline.first()
-                }
-                .copied()
-                .unwrap_or(self.origin);
-                if dot(sub(p, other), out) < 0.0 {
-                    (on, neg(out))
-                } else {
-                    (on, out)
-                }
+                (on, out)
             }
         }
     }
