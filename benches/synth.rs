@@ -12,7 +12,7 @@ use std::time::Duration;
 use criterion::{Criterion, criterion_group, criterion_main};
 use rand::rngs::SmallRng;
 use rand::{RngExt, SeedableRng};
-use sharpedge::synth::geom::point_triangle;
+use sharpedge::geometry::point_triangle;
 use sharpedge::synth::{Part, PointTruth, Sampling, SynthParams, TruthSurface, generate};
 
 fn scan_params(part: Part, n: usize) -> SynthParams {

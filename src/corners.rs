@@ -17,7 +17,8 @@ use rayon::prelude::*;
 
 use crate::edges::{EdgeResult, Surface};
 use crate::fit::{FitParams, fit_corner_3d};
-use crate::segment::{Segments, add, dot, nearest_point_to_lines, norm, sub};
+use crate::geometry::{add, dot, nearest_point_to_lines, norm, pca_line, point_line_distance, sub};
+use crate::segment::Segments;
 
 /// Settings of the corner stage (validated by `config`).
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
@@ -107,7 +108,7 @@ fn end_line(points: &[[f64; 3]], near: [f64; 3]) -> Option<([f64; 3], [f64; 3])>
         .collect();
     by_distance.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
     let ids: Vec<usize> = by_distance.iter().take(6).map(|x| x.1).collect();
-    crate::segment::pca_line(points, &ids)
+    pca_line(points, &ids)
 }
 
 fn fit_vertex(
@@ -153,7 +154,7 @@ fn fit_vertex(
     // The first edge whose end line misses `p`, and by how much.
     let off = |p: [f64; 3]| {
         lines.iter().zip(&ids).find_map(|(l, &k)| {
-            let d = crate::edges::point_line_distance(p, (*l)?);
+            let d = point_line_distance(p, (*l)?);
             (d > CORNER_ON_LINES * scale.spacing).then_some((k, d / scale.spacing))
         })
     };

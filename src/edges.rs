@@ -21,9 +21,10 @@ use rayon::prelude::*;
 
 use crate::features::Scale;
 use crate::fit::{FitParams, ProfileFit, ProfileKnown, ProfileScratch, fit_profile_2d_zone};
+use crate::geometry::{add, dot, norm, pca_line, perpendicular_basis, point_line_distance, sub};
 use crate::neighbours::Grid;
 use crate::polyline::Polyline;
-use crate::segment::{Segments, add, dot, norm, pca_line, sub};
+use crate::segment::Segments;
 
 /// Half-width of the window a centre line's tangent is averaged over, in neighbourhood radii:
 /// several slabs or centre-line windows, short against any curve an edge run follows.
@@ -1122,31 +1123,6 @@ pub fn mean_faces(slabs: &[SlabFit]) -> Option<[[f64; 3]; 2]> {
     out.iter()
         .all(|f| f.iter().all(|x| x.is_finite()))
         .then_some(out)
-}
-
-/// Distance from `p` to the line (point, unit direction).
-pub fn point_line_distance(p: [f64; 3], line: ([f64; 3], [f64; 3])) -> f64 {
-    let v = sub(p, line.0);
-    let t = dot(v, line.1);
-    norm(sub(v, line.1.map(|x| x * t)))
-}
-
-/// Two unit vectors completing `d` (unit) to a right-handed orthonormal frame. Built from the
-/// axis least aligned with `d`, so it is well conditioned for every direction.
-pub fn perpendicular_basis(d: [f64; 3]) -> ([f64; 3], [f64; 3]) {
-    let k = (0..3)
-        .min_by(|&a, &b| d[a].abs().total_cmp(&d[b].abs()))
-        .unwrap_or(0);
-    let mut a = [0.0; 3];
-    a[k] = 1.0;
-    let e1 = sub(a, d.map(|x| x * dot(a, d)));
-    let e1 = e1.map(|x| x / norm(e1));
-    let e2 = [
-        d[1] * e1[2] - d[2] * e1[1],
-        d[2] * e1[0] - d[0] * e1[2],
-        d[0] * e1[1] - d[1] * e1[0],
-    ];
-    (e1, e2)
 }
 
 #[cfg(test)]

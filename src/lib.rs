@@ -15,6 +15,7 @@ pub mod error;
 pub mod experiment;
 pub mod features;
 pub mod fit;
+pub mod geometry;
 pub mod io;
 pub mod json;
 pub mod neighbours;

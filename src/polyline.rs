@@ -9,7 +9,7 @@
 //! Degenerate input is explicit: repeated vertices are dropped, a single vertex is a point
 //! (`new` refuses fewer than two distinct vertices), and a closed polyline needs three.
 
-use crate::segment::{add, dot, norm, pca_line, sub};
+use crate::geometry::{add, dot, norm, pca_line, sub};
 
 /// An arc-length parametrised polyline.
 #[derive(Debug, Clone, PartialEq)]

@@ -16,8 +16,8 @@
 use crate::corners::{CornerFit, EdgeGeometry};
 use crate::edges::{EdgeResult, mean_faces};
 use crate::features::Scale;
+use crate::geometry::{add, cross, dot, norm, sub};
 use crate::neighbours::Grid;
-use crate::segment::{add, dot, norm, sub};
 
 /// Settings of the rectify stage (validated by `config`).
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
@@ -238,14 +238,6 @@ pub fn onto_traces(p: [f64; 3], c: [f64; 3], d: [f64; 3], faces: &[[f64; 3]; 2])
         .map(|x| x.1)
         .unwrap_or(perp);
     add(c, add(d.map(|x| x * along), best))
-}
-
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
 }
 
 #[cfg(test)]

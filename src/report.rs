@@ -18,9 +18,9 @@ use crate::config::{Precision, Settings};
 use crate::corners::{CornerFit, EdgeGeometry};
 use crate::edges::EdgeResult;
 use crate::error::{Error, Result};
+use crate::geometry::{norm, sub};
 use crate::io::{self, PlyWriteOptions};
 use crate::pipeline::{Outcome, Timing};
-use crate::segment::{norm, sub};
 
 /// One extracted edge as reported.
 #[derive(Debug, Clone, Serialize)]

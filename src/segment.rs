@@ -26,6 +26,10 @@
 use rayon::prelude::*;
 
 use crate::features::{Features, Scale};
+use crate::geometry::{
+    add, closest_between_rays, dot, nearest_point_to_lines, neg, norm, pca_line,
+    perpendicular_basis, sub,
+};
 use crate::neighbours::Grid;
 use crate::polyline::Polyline;
 
@@ -444,7 +448,7 @@ fn quadratic_end(
     // Centre-line samples are averages already; raw candidates need a few more to steady
     // the fit.
     let min_points = 4;
-    let (e1, e2) = crate::edges::perpendicular_basis(d);
+    let (e1, e2) = perpendicular_basis(d);
     let scale = ids
         .iter()
         .map(|&i| dot(sub(pos[i], c), d).abs())
@@ -1119,89 +1123,6 @@ fn find_vertices(mut runs: Vec<Run>, r: f64, params: &SegmentParams) -> (Vec<Run
     (runs, vertices)
 }
 
-/// Parameters along two rays (p + s·d) of their closest points and the distance between
-/// them; `None` for (nearly) parallel rays, which never meet at a vertex.
-/// Formula: the standard closest-points-of-two-lines solution (e.g. Eberly, "Distance Between
-/// Two Lines", Geometric Tools).
-pub fn closest_between_rays(
-    pa: [f64; 3],
-    da: [f64; 3],
-    pb: [f64; 3],
-    db: [f64; 3],
-) -> Option<(f64, f64, f64)> {
-    let w = sub(pa, pb);
-    let b = dot(da, db);
-    let denom = 1.0 - b * b;
-    if denom < 1e-6 {
-        return None;
-    }
-    let (d, e) = (dot(da, w), dot(db, w));
-    let sa = (b * e - d) / denom;
-    let sb = (e - b * d) / denom;
-    let ca = add(pa, da.map(|c| c * sa));
-    let cb = add(pb, db.map(|c| c * sb));
-    Some((sa, sb, norm(sub(ca, cb))))
-}
-
-/// The point minimising the sum of squared distances to the lines (point, unit direction);
-/// `None` when the lines are all parallel.
-pub fn nearest_point_to_lines(lines: &[([f64; 3], [f64; 3])]) -> Option<[f64; 3]> {
-    let mut a = nalgebra::Matrix3::<f64>::zeros();
-    let mut b = nalgebra::Vector3::<f64>::zeros();
-    for (p, d) in lines {
-        let d = nalgebra::Vector3::from(*d);
-        let m = nalgebra::Matrix3::identity() - d * d.transpose();
-        a += m;
-        b += m * nalgebra::Vector3::from(*p);
-    }
-    // Parallel lines make `a` singular in the shared direction.
-    let eig = nalgebra::SymmetricEigen::new(a);
-    if eig
-        .eigenvalues
-        .iter()
-        .copied()
-        .fold(f64::INFINITY, f64::min)
-        < 1e-6 * lines.len() as f64
-    {
-        return None;
-    }
-    let x = a.lu().solve(&b)?;
-    Some([x[0], x[1], x[2]])
-}
-
-/// Best line through the points (centroid, unit principal direction).
-pub fn pca_line(pos: &[[f64; 3]], ids: &[usize]) -> Option<([f64; 3], [f64; 3])> {
-    if ids.len() < 2 {
-        return None;
-    }
-    let n = ids.len() as f64;
-    let mut c = [0.0; 3];
-    for &i in ids {
-        c = add(c, pos[i]);
-    }
-    c = c.map(|v| v / n);
-    let mut m = nalgebra::Matrix3::<f64>::zeros();
-    for &i in ids {
-        let v = nalgebra::Vector3::from(sub(pos[i], c));
-        m += v * v.transpose();
-    }
-    let eig = nalgebra::SymmetricEigen::new(m);
-    let k = (0..3).max_by(|&a, &b| eig.eigenvalues[a].total_cmp(&eig.eigenvalues[b]))?;
-    if eig.eigenvalues[k] <= 0.0 {
-        return None;
-    }
-    let v = eig.eigenvectors.column(k);
-    // A fixed sign convention keeps results independent of the eigen solver's choice.
-    let mut d = [v[0], v[1], v[2]];
-    let big = (0..3)
-        .max_by(|&a, &b| d[a].abs().total_cmp(&d[b].abs()))
-        .unwrap_or(0);
-    if d[big] < 0.0 {
-        d = neg(d);
-    }
-    Some((c, d))
-}
-
 struct UnionFind {
     parent: Vec<usize>,
 }
@@ -1227,22 +1148,6 @@ impl UnionFind {
             self.parent[hi] = lo;
         }
     }
-}
-
-pub(crate) fn add(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
-}
-pub(crate) fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-pub(crate) fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-pub(crate) fn norm(a: [f64; 3]) -> f64 {
-    dot(a, a).sqrt()
-}
-pub(crate) fn neg(a: [f64; 3]) -> [f64; 3] {
-    [-a[0], -a[1], -a[2]]
 }
 
 #[cfg(test)]

@@ -2,7 +2,7 @@
 //! random rotation and a translation: edge and corner counts and positions, dihedral angles,
 //! convexity, and that sampled points lie on the surface (or on the fillets) they claim.
 
-use sharpedge::synth::geom::{V3, add, cross, dist, dot, mat_vec, norm, sub};
+use sharpedge::geometry::{V3, add, cross, dist, dot, mat_vec, norm, sub};
 use sharpedge::synth::{GroundTruth, Part, Sampling, SynthParams, generate};
 
 fn params(part: Part) -> SynthParams {

@@ -3,8 +3,8 @@
 
 use std::path::{Path, PathBuf};
 
+use sharpedge::geometry::{V3, angle, dist, point_segment, point_triangle, sub};
 use sharpedge::io::mesh::Mesh;
-use sharpedge::synth::geom::{V3, angle, dist, point_segment, point_triangle, sub};
 use sharpedge::synth::{
     GroundTruth, Part, Sampling, SynthParams, TruthSurface, generate, generate_from_mesh,
 };

@@ -4,7 +4,7 @@
 
 use proptest::prelude::*;
 use sharpedge::Error;
-use sharpedge::synth::geom::dist;
+use sharpedge::geometry::dist;
 use sharpedge::synth::{Part, Sampling, SynthParams, generate};
 
 fn part_strategy() -> impl Strategy<Value = Part> {

@@ -2,7 +2,7 @@
 //! spacing, noise level, the extra-noise band, outliers, determinism across thread counts,
 //! large georeferenced offsets, and the ground truth's JSON round trip.
 
-use sharpedge::synth::geom::{V3, dist, dot, sub};
+use sharpedge::geometry::{V3, dist, dot, sub};
 use sharpedge::synth::{GroundTruth, NN_RATIO, Part, Sampling, Scan, SynthParams, generate};
 
 fn base(part: Part, n: usize) -> SynthParams {

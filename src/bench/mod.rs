@@ -34,10 +34,11 @@ use serde::Serialize;
 
 use crate::config::Settings;
 use crate::error::{Error, Result};
+use crate::geometry::{V3, add, dist, dot, norm, point_segment};
 use crate::pipeline::{self, LapClock, Outcome};
 use crate::progress::Progress;
 use crate::report::CornerOut;
-use crate::synth::geom::{V3, add, derive, dist, dot, norm, point_segment};
+use crate::synth::geom::derive;
 use crate::synth::{self, GroundTruth, Part, PointTruth, Sampling, SynthParams};
 use score::{EdgeScore, polyline_segments, same_bits, score_edges, stats};
 

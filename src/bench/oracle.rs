@@ -10,7 +10,7 @@
 
 use nalgebra::{Matrix3, SymmetricEigen, Vector3};
 
-use crate::synth::geom::{V3, add, cross, dot, norm, scale, sub};
+use crate::geometry::{V3, add, cross, dot, norm, scale, sub};
 use crate::synth::{GroundTruth, PointTruth};
 
 /// A plane `{x : normal · (x − point) = 0}` with a unit normal.
@@ -195,7 +195,7 @@ pub fn fit(gt: &GroundTruth, positions: &[V3], truth: &[PointTruth]) -> Oracle {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::synth::geom::dist;
+    use crate::geometry::dist;
 
     fn plane(normal: V3, point: V3) -> Plane {
         let l = norm(normal);

@@ -15,7 +15,7 @@
 
 use std::collections::HashMap;
 
-use crate::synth::geom::{V3, dist, point_segment};
+use crate::geometry::{V3, dist, point_segment};
 
 /// A found corner matched to a true one.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -1,7 +1,7 @@
 //! Tests of the bench's case list, metrics and verdicts with hand-made answers.
 
 use super::*;
-use crate::synth::geom::{add, norm, scale, sub};
+use crate::geometry::{add, cross, dot, norm, scale, sub};
 
 /// A small, exact (noise-free, unrotated) box: its ground truth gives true edges and corners.
 fn box_truth() -> synth::Scan {
@@ -34,7 +34,7 @@ fn perpendicular(d: V3) -> V3 {
     } else {
         [0.0, 1.0, 0.0]
     };
-    unit(crate::synth::geom::cross(d, a))
+    unit(cross(d, a))
 }
 
 #[test]
@@ -181,7 +181,7 @@ fn edges_offset_by_one_spacing_score_rms_one_and_full_recall() {
             let d = unit(sub(e.end, e.start));
             // Outwards along one face normal: away from the box, so no other edge is nearer.
             let n = e.normals[0];
-            assert!(crate::synth::geom::dot(n, d).abs() < 1e-12);
+            assert!(dot(n, d).abs() < 1e-12);
             vec![add(e.start, scale(n, h)), add(e.end, scale(n, h))]
         })
         .collect();
@@ -511,7 +511,7 @@ fn away_mask_takes_every_edge_into_account_near_vertices() {
         .expect("the wedge has a 30° edge");
     let d = unit(sub(apex.end, apex.start));
     let n1 = apex.normals[1];
-    let mut u0 = unit(crate::synth::geom::cross(d, apex.normals[0]));
+    let mut u0 = unit(cross(d, apex.normals[0]));
     if dot(u0, n1) > 0.0 {
         u0 = scale(u0, -1.0);
     }

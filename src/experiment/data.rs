@@ -24,6 +24,7 @@
 use rand::{Rng, RngExt};
 
 use crate::fit::standard_normal;
+use crate::geometry::{axpy, cross, div, norm};
 
 /// The drawn parameters of one trial.
 #[derive(Clone, Debug, PartialEq)]
@@ -185,42 +186,35 @@ fn random_unit3<R: Rng + ?Sized>(rng: &mut R) -> [f64; 3] {
             standard_normal(rng),
             standard_normal(rng),
         ];
-        let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+        let n = norm(v);
         if n > 1e-6 {
-            return [v[0] / n, v[1] / n, v[2] / n];
+            return div(v, n);
         }
     }
 }
 
-fn cross(a: &[f64; 3], b: &[f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-
-fn normalise(v: [f64; 3]) -> [f64; 3] {
-    let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-    [v[0] / n, v[1] / n, v[2] / n]
+/// `v` divided by its length (the generated data's own rounding: a division per component,
+/// not `geometry::unit`'s multiplication by the reciprocal).
+fn normalised(v: [f64; 3]) -> [f64; 3] {
+    div(v, norm(v))
 }
 
 /// A random orthonormal frame (rows).
 fn random_frame<R: Rng + ?Sized>(rng: &mut R) -> [[f64; 3]; 3] {
     let a = random_unit3(rng);
     let mut b = random_unit3(rng);
-    while cross(&a, &b).iter().map(|x| x * x).sum::<f64>() < 1e-3 {
+    while cross(a, b).iter().map(|x| x * x).sum::<f64>() < 1e-3 {
         b = random_unit3(rng);
     }
-    let c = normalise(cross(&a, &b));
-    let b = cross(&c, &a);
+    let c = normalised(cross(a, b));
+    let b = cross(c, a);
     [a, b, c]
 }
 
 fn tilt<R: Rng + ?Sized>(rng: &mut R, d: [f64; 3], max: f64) -> [f64; 3] {
     let e = random_unit3(rng);
     let s = max * rng.random::<f64>();
-    normalise([d[0] + s * e[0], d[1] + s * e[1], d[2] + s * e[2]])
+    normalised(axpy(d, s, e))
 }
 
 /// A 3D trial.
@@ -231,10 +225,10 @@ pub fn trial_3d<R: Rng + ?Sized>(rng: &mut R, abn: &Abnormality) -> Trial3 {
     let dirs: Vec<[f64; 3]> = if u < 0.2 {
         let half = uniform(rng, 60.0, 150.0).to_radians() / 2.0;
         vec![
-            normalise(std::array::from_fn(|k| {
+            normalised(std::array::from_fn(|k| {
                 half.cos() * f[0][k] + half.sin() * f[1][k]
             })),
-            normalise(std::array::from_fn(|k| {
+            normalised(std::array::from_fn(|k| {
                 half.cos() * f[0][k] - half.sin() * f[1][k]
             })),
         ]
@@ -251,7 +245,7 @@ pub fn trial_3d<R: Rng + ?Sized>(rng: &mut R, abn: &Abnormality) -> Trial3 {
                 let d = std::array::from_fn(|k| {
                     beta.sin() * (az.cos() * f[0][k] + az.sin() * f[1][k]) + beta.cos() * f[2][k]
                 });
-                tilt(rng, normalise(d), 0.1)
+                tilt(rng, normalised(d), 0.1)
             })
             .collect()
     };
@@ -267,7 +261,7 @@ pub fn trial_3d<R: Rng + ?Sized>(rng: &mut R, abn: &Abnormality) -> Trial3 {
     let kappa = uniform(rng, 1.0, 3.0);
     let gap = uniform(rng, 0.0, 1.5);
     let blunting = abn.rounding * rng.random::<f64>();
-    let inward = normalise(std::array::from_fn(|k| {
+    let inward = normalised(std::array::from_fn(|k| {
         dirs.iter().map(|d| d[k]).sum::<f64>()
     }));
     let blunt = uniform(rng, 0.3, 1.0);

@@ -23,7 +23,7 @@ use super::problem::{Frame, Problem, grow_and_cap, nearest_on_rays, rms_radius};
 use super::propagate::{line_residuals, noise_from_residuals, propagate_run, side_fit};
 use super::pso::{Search, SwarmScratch, pso};
 use super::scheme1::scheme1;
-use super::vec::{cross, dot, finite, norm, norm2, sub};
+use crate::geometry::{cross, dot, finite, norm, norm2, sub};
 use crate::{Error, Result};
 
 const WHAT: &str = "3D corner fit";

@@ -20,7 +20,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::objective::{FixedSlopes2, FixedSlopes3, Objective};
-use super::vec::{dot, norm, solve2, solve3};
+use crate::geometry::{dot, norm, solve2, solve3};
 use crate::{Error, Result};
 
 /// Tolerances of the iterative exact solvers.
@@ -169,7 +169,7 @@ fn lad_2d(obj: &FixedSlopes2, _scratch: &mut [f64]) -> Result<Exact<2>> {
         // Active terms (zero residual) define the candidate edge directions.
         let mut best: Option<(f64, [f64; 2])> = None;
         for (n, a) in &terms {
-            if (a - dot(n, &q)).abs() > tol {
+            if (a - dot(n, q)).abs() > tol {
                 continue;
             }
             for s in [1.0, -1.0] {
@@ -177,8 +177,8 @@ fn lad_2d(obj: &FixedSlopes2, _scratch: &mut [f64]) -> Result<Exact<2>> {
                 // Directional derivative of Σ|a_i − n_i·q| along d.
                 let mut g = 0.0;
                 for (m, b) in &terms {
-                    let r = b - dot(m, &q);
-                    let md = dot(m, &d);
+                    let r = b - dot(m, q);
+                    let md = dot(m, d);
                     g += if r.abs() <= tol {
                         md.abs()
                     } else {
@@ -344,7 +344,7 @@ pub fn exact_3d(obj: &FixedSlopes3, scale: f64, params: &ExactParams) -> Result<
                 (w, np)
             }
         };
-        let moved = norm(&[cand[0] - q[0], cand[1] - q[1], cand[2] - q[2]]);
+        let moved = norm([cand[0] - q[0], cand[1] - q[1], cand[2] - q[2]]);
         q = cand;
         cur = np;
         if moved <= params.tolerance * scale {
@@ -367,7 +367,7 @@ pub fn exact_3d(obj: &FixedSlopes3, scale: f64, params: &ExactParams) -> Result<
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::fit::vec::unit;
+    use crate::geometry::unit;
     use rand::rngs::SmallRng;
     use rand::{RngExt, SeedableRng};
 
@@ -471,7 +471,7 @@ mod tests {
             let mut obj = FixedSlopes3::default();
             let k = 2 + (seed % 3) as usize;
             for _ in 0..k {
-                let d = unit(&[
+                let d = unit([
                     rng.random::<f64>() - 0.5,
                     rng.random::<f64>() - 0.5,
                     rng.random::<f64>() - 0.5,
@@ -514,7 +514,7 @@ mod tests {
             obj.add_line(&d, &pts);
         }
         let ex = exact_3d(&obj, 1.0, &ExactParams::default()).unwrap();
-        assert!(norm(&[ex.point[0] - 2.0, ex.point[1] - 3.0, ex.point[2] + 1.0]) < 1e-9);
+        assert!(norm([ex.point[0] - 2.0, ex.point[1] - 3.0, ex.point[2] + 1.0]) < 1e-9);
         assert!(ex.error < 1e-8);
     }
 

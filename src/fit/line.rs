@@ -10,7 +10,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::vec::{axpy, dot, finite, norm, reject, scale, sub, sym_eigen, unit};
+use crate::geometry::{axpy, dot, finite, norm, reject, scale, sub, sym_eigen, unit};
 use crate::{Error, Result};
 
 /// A line through `point` with unit `direction`.
@@ -43,25 +43,25 @@ impl<const D: usize> Line<D> {
     /// Signed position of the foot of `p` along the line, measured from `point`.
     #[inline]
     pub fn param(&self, p: &[f64; D]) -> f64 {
-        dot(&sub(p, &self.point), &self.direction)
+        dot(sub(p, self.point), self.direction)
     }
 
     /// The foot of the perpendicular from `p` (its orthogonal projection onto the line).
     #[inline]
     pub fn project(&self, p: &[f64; D]) -> [f64; D] {
-        axpy(&self.point, self.param(p), &self.direction)
+        axpy(self.point, self.param(p), self.direction)
     }
 
     /// Euclidean distance from `p` to the line (the paper's Eq. 11 in 2D, Eq. 13 in 3D).
     #[inline]
     pub fn distance(&self, p: &[f64; D]) -> f64 {
-        norm(&reject(&sub(p, &self.point), &self.direction))
+        norm(reject(sub(p, self.point), self.direction))
     }
 
     /// The same line with its direction reversed when it points away from `towards`.
     pub fn oriented(mut self, towards: &[f64; D]) -> Self {
-        if dot(towards, &self.direction) < 0.0 {
-            self.direction = scale(&self.direction, -1.0);
+        if dot(towards, self.direction) < 0.0 {
+            self.direction = scale(self.direction, -1.0);
         }
         self
     }
@@ -119,7 +119,7 @@ impl<const D: usize> LineAcc<D> {
         if self.n == 0 {
             self.origin = *p;
         }
-        let d = sub(p, &self.origin);
+        let d = sub(p, self.origin);
         self.n += 1;
         for i in 0..D {
             self.sum[i] += d[i];
@@ -131,7 +131,7 @@ impl<const D: usize> LineAcc<D> {
 
     /// Centroid of the points added so far.
     pub fn centroid(&self) -> [f64; D] {
-        axpy(&self.origin, 1.0 / self.n.max(1) as f64, &self.sum)
+        axpy(self.origin, 1.0 / self.n.max(1) as f64, self.sum)
     }
 
     /// Scatter matrix about the centroid (sum of outer products of centred points).
@@ -150,14 +150,14 @@ impl<const D: usize> LineAcc<D> {
             return None;
         }
         let (vals, vecs) = sym_eigen(&self.scatter());
-        if vals[0].is_nan() || vals[0] <= 0.0 || !finite(&vecs[0]) {
+        if vals[0].is_nan() || vals[0] <= 0.0 || !finite(vecs[0]) {
             return None;
         }
         Some((
             vals,
             Line {
                 point: self.centroid(),
-                direction: unit(&vecs[0])?,
+                direction: unit(vecs[0])?,
             },
         ))
     }
@@ -167,8 +167,8 @@ impl<const D: usize> LineAcc<D> {
     /// little per point, and for line-like data the eigenvalue gap makes one step enough).
     pub fn power_step(&self, dir: &[f64; D]) -> Option<[f64; D]> {
         let s = self.scatter();
-        let v: [f64; D] = std::array::from_fn(|i| dot(&s[i], dir));
-        unit(&v)
+        let v: [f64; D] = std::array::from_fn(|i| dot(s[i], dir));
+        unit(v)
     }
 }
 
@@ -251,7 +251,7 @@ pub fn fit_line_2d_paper(pts: &[[f64; 2]]) -> Result<Line2> {
     dir[v] = a;
     Ok(Line {
         point,
-        direction: unit(&dir).ok_or_else(|| Error::Degenerate {
+        direction: unit(dir).ok_or_else(|| Error::Degenerate {
             what: WHAT,
             why: format!("slope {a} is not finite"),
         })?,
@@ -273,10 +273,10 @@ impl PaperLine3 {
     /// The line as point + unit direction; the direction is (a, c, 1) normalised (Eq. 13's v).
     pub fn to_line(&self, z0: f64) -> Line3 {
         let dir = [self.a, self.c, 1.0];
-        let n = norm(&dir);
+        let n = norm(dir);
         Line {
             point: [self.a * z0 + self.b, self.c * z0 + self.d, z0],
-            direction: scale(&dir, 1.0 / n),
+            direction: scale(dir, 1.0 / n),
         }
     }
 }
@@ -407,10 +407,10 @@ fn regress<const D: usize>(pts: &[[f64; D]], u: usize, v: usize) -> Option<(f64,
     let mut suv = 0.0;
     let mut total = 0.0;
     for p in pts {
-        let d = sub(p, &mean);
+        let d = sub(p, mean);
         suu += d[u] * d[u];
         suv += d[u] * d[v];
-        total += dot(&d, &d);
+        total += dot(d, d);
     }
     if suu.is_nan() || suu <= 1e-24 * total || total == 0.0 {
         return None;
@@ -422,7 +422,7 @@ fn regress<const D: usize>(pts: &[[f64; D]], u: usize, v: usize) -> Option<(f64,
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::fit::vec::cross;
+    use crate::geometry::cross;
     use rand::rngs::SmallRng;
     use rand::{RngExt, SeedableRng};
 
@@ -439,7 +439,7 @@ mod tests {
     }
 
     fn same_dir(a: &[f64; 3], b: &[f64; 3]) -> f64 {
-        norm(&cross(a, b))
+        norm(cross(a, b))
     }
 
     #[test]
@@ -454,7 +454,7 @@ mod tests {
                 && (l.direction[1].abs() - 0.8).abs() < 1e-14
         );
         assert!(pts.iter().all(|p| l.distance(p) < 1e-13));
-        let d3 = unit(&[1.0, 2.0, 3.0]).unwrap();
+        let d3 = unit([1.0, 2.0, 3.0]).unwrap();
         let p3 = noisy_line3(d3, 30, 0.0, 1);
         let l3 = fit_line(&p3).unwrap();
         assert!(same_dir(&l3.direction, &d3) < 1e-14);
@@ -462,7 +462,7 @@ mod tests {
 
     #[test]
     fn paper_form_agrees_with_tls_where_both_apply() {
-        let d = unit(&[0.3, -0.2, 1.0]).unwrap();
+        let d = unit([0.3, -0.2, 1.0]).unwrap();
         let pts = noisy_line3(d, 60, 1e-3, 7);
         let tls = fit_line(&pts).unwrap();
         let raw = fit_line_3d_paper_raw(&pts).unwrap().to_line(0.0);

@@ -76,6 +76,9 @@
 //!   (`scratch.problem()`), in the fit's local [`Frame`], so each searcher can be run and timed
 //!   on its own; [`solve_profile_2d`] / [`solve_corner_3d`] finish the fit.
 
+// The geometry helpers take arrays by value (`impl Borrow`); these two files, rewritten on
+// another branch as this lands, still pass references. Drop the allows when they stop.
+#[allow(clippy::needless_borrows_for_generic_args)]
 pub mod corner;
 pub mod exact;
 pub mod ga;
@@ -83,12 +86,16 @@ pub mod line;
 pub mod objective;
 pub mod params;
 pub mod problem;
+#[allow(clippy::needless_borrows_for_generic_args)]
 pub mod profile;
 pub mod propagate;
 pub mod pso;
 pub mod refine;
 pub mod scheme1;
-mod vec;
+
+// profile.rs and corner.rs (rewritten on another branch as this moves) name a few helpers by
+// the path `super::vec::...`; they are the crate's geometry. Remove once they import it.
+use crate::geometry as vec;
 
 use rand::Rng;
 

@@ -11,7 +11,7 @@
 //! [`JointSlopes`] is the non-convex variant used for the joint refinement: the slopes are
 //! re-fitted through q (total least squares about q) at every evaluation.
 
-use super::vec::{dot, norm, perp_basis, reject, sub, sym_eigen, unit};
+use crate::geometry::{dot, norm, perp_basis, reject, sub, sym_eigen, unit};
 
 /// Something the searchers can minimise: the fitting error of a candidate corner.
 pub trait Objective<const D: usize> {
@@ -109,7 +109,7 @@ impl FixedSlopes2 {
         }
         self.normals.push(n);
         let from = self.a.len();
-        self.a.extend(points.into_iter().map(|p| dot(&n, p)));
+        self.a.extend(points.into_iter().map(|p| dot(n, p)));
         self.a[from..].sort_unstable_by(f64::total_cmp);
         let m = self
             .a
@@ -156,7 +156,7 @@ impl Objective<2> for FixedSlopes2 {
         }
         let mut total = 0.0;
         for j in 0..self.normals.len() {
-            let u = dot(&self.normals[j], q);
+            let u = dot(self.normals[j], q);
             let vals = self.values(j);
             let n = vals.len();
             let k = vals.partition_point(|&v| v < u);
@@ -211,8 +211,8 @@ impl FixedSlopes3 {
         self.dirs.push(d);
         self.bases.push((e1, e2));
         for p in points {
-            self.ax.push(dot(&e1, p));
-            self.ay.push(dot(&e2, p));
+            self.ax.push(dot(e1, p));
+            self.ay.push(dot(e2, p));
         }
         self.starts.push(self.ax.len());
         true
@@ -307,7 +307,7 @@ impl<const D: usize> JointSlopes<D> {
             std::array::from_fn(|b| s2[a][b] - q[a] * s[b] - s[a] * q[b] + n * q[a] * q[b])
         });
         let (vals, vecs) = sym_eigen(&m);
-        (vals[0] > 0.0).then_some(vecs[0]).and_then(|v| unit(&v))
+        (vals[0] > 0.0).then_some(vecs[0]).and_then(unit)
     }
 }
 
@@ -322,7 +322,7 @@ impl<const D: usize> Objective<D> for JointSlopes<D> {
             // No direction means all points are at q: zero distance to any line through q.
             if let Some(d) = self.direction_at(j, q) {
                 for p in pts {
-                    total += norm(&reject(&sub(p, q), &d));
+                    total += norm(reject(sub(p, q), d));
                 }
             }
         }
@@ -337,8 +337,8 @@ mod tests {
 
     #[test]
     fn fixed_slopes_match_direct_point_line_distances() {
-        let d1 = unit(&[1.0, 0.3]).unwrap();
-        let d2 = unit(&[-0.2, 1.0]).unwrap();
+        let d1 = unit([1.0, 0.3]).unwrap();
+        let d2 = unit([-0.2, 1.0]).unwrap();
         let s1 = [[1.0, 2.0], [3.0, -1.0], [0.5, 0.5]];
         let s2 = [[-1.0, 4.0], [2.0, 2.0]];
         let mut obj = FixedSlopes2::default();
@@ -360,8 +360,8 @@ mod tests {
         assert_eq!(obj.error(&[f64::NAN, 0.0]), f64::INFINITY);
 
         let e = [
-            unit(&[1.0, 0.2, -0.1]).unwrap(),
-            unit(&[0.0, 1.0, 0.4]).unwrap(),
+            unit([1.0, 0.2, -0.1]).unwrap(),
+            unit([0.0, 1.0, 0.4]).unwrap(),
             [0.0, 0.0, 1.0],
         ];
         let sides: [&[[f64; 3]]; 3] = [
@@ -409,9 +409,9 @@ mod tests {
                 ];
                 let direct: f64 = (0..2)
                     .map(|j| {
-                        let u = dot(&obj.normal(j), &q);
+                        let u = dot(obj.normal(j), q);
                         pts.iter()
-                            .map(|p| (dot(&obj.normal(j), p) - u).abs())
+                            .map(|p| (dot(obj.normal(j), p) - u).abs())
                             .sum::<f64>()
                     })
                     .sum();
@@ -424,9 +424,9 @@ mod tests {
             let q = pts[0];
             let direct: f64 = (0..2)
                 .map(|j| {
-                    let u = dot(&obj.normal(j), &q);
+                    let u = dot(obj.normal(j), q);
                     pts.iter()
-                        .map(|p| (dot(&obj.normal(j), p) - u).abs())
+                        .map(|p| (dot(obj.normal(j), p) - u).abs())
                         .sum::<f64>()
                 })
                 .sum();

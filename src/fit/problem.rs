@@ -9,7 +9,7 @@
 //! georeferenced offset loses no digits.
 
 use super::line::Line;
-use super::vec::{axpy, dot, norm2, sub};
+use crate::geometry::{axpy, dot, norm2, sub};
 
 /// The similarity map between the input coordinates and a fit's local frame:
 /// local = (input − origin) / unit.
@@ -23,7 +23,7 @@ impl<const D: usize> Frame<D> {
     /// Input coordinates of a local point.
     #[inline]
     pub fn to_input(&self, q: &[f64; D]) -> [f64; D] {
-        axpy(&self.origin, self.unit, q)
+        axpy(self.origin, self.unit, q)
     }
 
     /// Local coordinates of an input point.
@@ -106,7 +106,7 @@ pub(crate) fn rms_radius<const D: usize>(
     for x in c.iter_mut() {
         *x /= n as f64;
     }
-    (idx.map(|i| norm2(&sub(&pts[i], &c))).sum::<f64>() / n as f64).sqrt()
+    (idx.map(|i| norm2(sub(pts[i], c))).sum::<f64>() / n as f64).sqrt()
 }
 
 /// Grows `cand` (indices, no duplicates) to at least `min` entries with the points nearest to
@@ -127,7 +127,7 @@ pub(crate) fn grow_and_cap<const D: usize>(
             centre[k] += pts[i][k] / cand.len() as f64;
         }
     }
-    let r2 = |i: usize| norm2(&sub(&pts[i], &centre));
+    let r2 = |i: usize| norm2(sub(pts[i], centre));
     if cand.len() < min.min(n) {
         flag.clear();
         flag.resize(n, false);
@@ -172,9 +172,9 @@ pub(crate) fn nearest_on_rays<const D: usize>(
     let v = sub(p, q);
     let mut best = (*q, 0, f64::INFINITY);
     for (j, d) in dirs.iter().enumerate() {
-        let t = dot(&v, d).max(0.0);
+        let t = dot(v, d).max(0.0);
         let foot = axpy(q, t, d);
-        let e = norm2(&sub(p, &foot));
+        let e = norm2(sub(p, foot));
         if e < best.2 {
             best = (foot, j, e);
         }

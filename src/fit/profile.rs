@@ -29,7 +29,7 @@ use super::problem::{Frame, Problem, grow_and_cap, nearest_on_rays, rms_radius};
 use super::propagate::{line_residuals, noise_from_residuals, propagate_run, side_fit};
 use super::pso::{Search, SwarmScratch, pso};
 use super::scheme1::scheme1;
-use super::vec::{dot, finite, norm2, scale, sub, unit};
+use crate::geometry::{dot, finite, norm2, scale, sub, unit};
 use crate::{Error, Result};
 
 const WHAT: &str = "2D profile fit";

@@ -23,7 +23,7 @@ use std::ops::Range;
 use serde::{Deserialize, Serialize};
 
 use super::line::{Line, LineAcc, LineForm};
-use super::vec::{dot, finite, norm, reject, sub};
+use crate::geometry::{dot, finite, norm, reject, sub};
 use crate::{Error, Result};
 
 /// Parameters of the line propagation.
@@ -112,7 +112,7 @@ pub fn propagate_run<const D: usize>(
         return m;
     }
     let thr = params.tolerance * sigma;
-    let prior = prior.and_then(|d| super::vec::unit(&d)).or_else(|| {
+    let prior = prior.and_then(crate::geometry::unit).or_else(|| {
         let mut acc = LineAcc::default();
         for &k in &order[..(m / 4).max(init)] {
             acc.push(&pts[k]);
@@ -138,7 +138,7 @@ pub fn propagate_run<const D: usize>(
             continue;
         }
         let s = acc.scatter();
-        let along: f64 = (0..D).map(|a| prior[a] * dot(&s[a], &prior)).sum();
+        let along: f64 = (0..D).map(|a| prior[a] * dot(s[a], prior)).sum();
         let trace: f64 = (0..D).map(|a| s[a][a]).sum();
         if along >= e2 * (trace - along).max(0.0) || i >= cap {
             break;
@@ -147,7 +147,7 @@ pub fn propagate_run<const D: usize>(
     let mut dir = match acc.fit() {
         // The fitted axis, unless the points are still too blob-like to have turned it
         // reliably (more than 30° off the prior).
-        Some((_, l)) if dot(&l.direction, &prior).abs() >= 0.866 => l.direction,
+        Some((_, l)) if dot(l.direction, prior).abs() >= 0.866 => l.direction,
         _ => prior,
     };
     // Deviation of p from the current line, and the standard deviation expected for it:
@@ -155,29 +155,29 @@ pub fn propagate_run<const D: usize>(
     // σ² (1 + 1/m + τ² / Σ τ_i²) with τ the position along the line from the centroid).
     let test = |acc: &LineAcc<D>, dir: &[f64; D], p: &[f64; D]| {
         let c = acc.centroid();
-        let v = sub(p, &c);
-        let tau = dot(&v, dir);
+        let v = sub(p, c);
+        let tau = dot(v, dir);
         let s = acc.scatter();
-        let stt: f64 = (0..D).map(|a| dir[a] * dot(&s[a], dir)).sum();
+        let stt: f64 = (0..D).map(|a| dir[a] * dot(s[a], dir)).sum();
         let m = acc.len() as f64;
         let spread = (1.0 + 1.0 / m + if stt > 0.0 { tau * tau / stt } else { 0.0 }).sqrt();
-        (reject(&v, dir), spread)
+        (reject(v, dir), spread)
     };
     while i < m {
         let (r, spread) = test(&acc, &dir, &pts[order[i]]);
-        if norm(&r) > thr * spread {
+        if norm(r) > thr * spread {
             // A turn, or one noisy point? Look at the next points against the same line.
             let end = (i + params.patience.max(1)).min(m);
             let turned = (i + 1..end).all(|k| {
                 let (rk, sk) = test(&acc, &dir, &pts[order[k]]);
-                norm(&rk) > thr * sk && dot(&rk, &r) > 0.0
+                norm(rk) > thr * sk && dot(rk, r) > 0.0
             });
             if turned {
                 let mut stop = i;
                 if params.backoff > 0.0 {
                     while stop > init {
                         let (rb, _) = test(&acc, &dir, &pts[order[stop - 1]]);
-                        if dot(&rb, &r) > 0.0 && norm(&rb) > params.backoff * sigma {
+                        if dot(rb, r) > 0.0 && norm(rb) > params.backoff * sigma {
                             stop -= 1;
                         } else {
                             break;
@@ -299,8 +299,8 @@ pub fn propagate_polyline<const D: usize>(
     let l1 = side_fit(pts, &idx1, form, 0.0, sigma, &mut buf)?;
     let l2 = side_fit(pts, &idx2, form, 0.0, sigma, &mut buf)?;
     // Directions away from the corner: from the side's inner end towards its outer end.
-    let l1 = l1.oriented(&sub(&pts[0], &pts[s1_end - 1]));
-    let l2 = l2.oriented(&sub(&pts[m - 1], &pts[s2_start]));
+    let l1 = l1.oriented(&sub(pts[0], pts[s1_end - 1]));
+    let l2 = l2.oriented(&sub(pts[m - 1], pts[s2_start]));
     Ok(PolylineSplit {
         sides: [0..s1_end, s2_start..m],
         corner: s1_end..s2_start,
@@ -317,7 +317,7 @@ pub(crate) fn extent<const D: usize>(pts: &[[f64; D]]) -> f64 {
     let n = pts.len() as f64;
     let c: [f64; D] = std::array::from_fn(|k| pts.iter().map(|p| p[k]).sum::<f64>() / n);
     (pts.iter()
-        .map(|p| super::vec::norm2(&sub(p, &c)))
+        .map(|p| crate::geometry::norm2(sub(p, c)))
         .sum::<f64>()
         / n)
         .sqrt()
@@ -400,7 +400,7 @@ mod tests {
         for (l, d) in s.local.iter().zip(dirs) {
             let c = l.direction[0] * d[1] - l.direction[1] * d[0];
             assert!(
-                c.abs() < 0.02 && dot(&l.direction, &d) > 0.0,
+                c.abs() < 0.02 && dot(l.direction, d) > 0.0,
                 "{:?} vs {d:?}",
                 l.direction
             );
@@ -421,7 +421,7 @@ mod tests {
         // 30 points along x, then 30 along a direction 100° away, noise 0.01 on a 0.2 spacing.
         let mut rng = SmallRng::seed_from_u64(4);
         let d2 = [-(10f64.to_radians().sin()), 0.6, 0.8];
-        let n2 = norm(&d2);
+        let n2 = norm(d2);
         let mut pts: Vec<[f64; 3]> = Vec::new();
         for i in (1..=30).rev() {
             let t = 0.2 * i as f64;

@@ -23,7 +23,7 @@ use rand::{Rng, RngExt};
 use serde::{Deserialize, Serialize};
 
 use super::objective::Objective;
-use super::vec::{axpy, dot};
+use crate::geometry::{axpy, dot};
 
 /// PSO parameters (paper §3).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -107,7 +107,7 @@ pub struct SwarmScratch<const D: usize> {
 /// Coordinates of `q` in the orthonormal `basis` (rows).
 #[inline]
 pub(crate) fn to_basis<const D: usize>(basis: &[[f64; D]; D], q: &[f64; D]) -> [f64; D] {
-    std::array::from_fn(|k| dot(&basis[k], q))
+    std::array::from_fn(|k| dot(basis[k], q))
 }
 
 /// The point with coordinates `y` in the orthonormal `basis` (rows).
@@ -115,7 +115,7 @@ pub(crate) fn to_basis<const D: usize>(basis: &[[f64; D]; D], q: &[f64; D]) -> [
 pub(crate) fn from_basis<const D: usize>(basis: &[[f64; D]; D], y: &[f64; D]) -> [f64; D] {
     let mut q = [0.0; D];
     for k in 0..D {
-        q = axpy(&q, y[k], &basis[k]);
+        q = axpy(q, y[k], basis[k]);
     }
     q
 }

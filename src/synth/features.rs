@@ -21,7 +21,7 @@
 
 use std::collections::{HashMap, HashSet};
 
-use super::geom::{V3, angle, cross, dot, norm, normalize, sub, triangle_normal};
+use crate::geometry::{V3, angle, cross, dot, norm, sub, triangle_normal, unit};
 use crate::io::mesh::Mesh;
 
 /// Thresholds for feature extraction (angles in radians, distances in model units).
@@ -234,9 +234,9 @@ pub fn analyse_with(
         let (o0, o1) = (opp(t0), opp(t1));
         // Convex when each triangle's far vertex lies behind the other's plane.
         let convex = dot(n0, sub(o1, a)) + dot(n1, sub(o0, a)) < 0.0;
-        let dir = normalize(sub(b, a)).unwrap_or([0.0; 3]);
+        let dir = unit(sub(b, a)).unwrap_or([0.0; 3]);
         let inward = |n: V3, o: V3| {
-            let d = normalize(cross(n, dir)).unwrap_or([0.0; 3]);
+            let d = unit(cross(n, dir)).unwrap_or([0.0; 3]);
             if dot(d, sub(o, a)) < 0.0 {
                 d.map(|c| -c)
             } else {

@@ -34,7 +34,7 @@
 //! overlap; [`build`] reports the largest radius the part allows otherwise.
 
 use super::features::Model;
-use super::geom::{V3, add, dot, normalize, scale, sub};
+use crate::geometry::{V3, add, dot, scale, sub, unit};
 
 /// The ball blend of one face at one end of an edge.
 #[derive(Debug, Clone)]
@@ -115,7 +115,7 @@ fn walk_sector(m: &Model, e: usize, k: usize, v: u32) -> Option<Sector> {
 /// Unit direction of edge `e` pointing away from its vertex `v`.
 fn dir_from(m: &Model, e: usize, v: u32) -> V3 {
     let edge = &m.edges[e];
-    let d = normalize(sub(edge.b, edge.a)).unwrap_or([0.0; 3]);
+    let d = unit(sub(edge.b, edge.a)).unwrap_or([0.0; 3]);
     if edge.v[0] == v { d } else { scale(d, -1.0) }
 }
 
@@ -213,10 +213,10 @@ pub fn build(m: &Model, r: f64) -> Result<Fillets, f64> {
             let len = dot(d, d).sqrt();
             let half_beta_sin = (0.5 * e.normal_angle).cos(); // sin(β/2), β = π − θ
             let half_beta_tan = (0.5 * e.normal_angle).cos() / (0.5 * e.normal_angle).sin();
-            let w = normalize(add(e.inward[0], e.inward[1]));
+            let w = unit(add(e.inward[0], e.inward[1]));
             let rounded = r > 0.0 && half_beta_sin > 1e-6 && w.is_some();
             EdgeFillet {
-                dir: normalize(d).unwrap_or([0.0; 3]),
+                dir: unit(d).unwrap_or([0.0; 3]),
                 len,
                 td: if rounded { r / half_beta_tan } else { 0.0 },
                 axis_off: match (rounded, w) {

@@ -7,7 +7,7 @@
 //! which are at least k cell widths from the query (also for queries outside the grid, whose
 //! projection onto the grid box lies in the start cell and is no farther from any cell).
 
-use super::geom::V3;
+use crate::geometry::V3;
 
 #[derive(Debug, Clone)]
 pub struct GridIndex {
@@ -181,8 +181,8 @@ impl GridIndex {
 
 #[cfg(test)]
 mod tests {
-    use super::super::geom::{V3, point_segment};
     use super::*;
+    use crate::geometry::{V3, point_segment};
     use rand::rngs::SmallRng;
     use rand::{RngExt, SeedableRng};
 

@@ -49,9 +49,10 @@ use serde::{Deserialize, Serialize};
 
 use crate::cloud::{Attribute, Cloud, Column, Source};
 use crate::error::{Error, Result};
+use crate::geometry::{V3, add, dist, mat_vec};
 use crate::io::mesh::{Mesh, read_mesh};
 use features::{FeatureOptions, Model, analyse, analyse_with};
-use geom::{V3, derive, mat_vec, random_rotation};
+use geom::{derive, random_rotation};
 pub use parts::Part;
 pub use truth::{GroundTruth, TruthCorner, TruthEdge, TruthFace, TruthPolyline, TruthSurface};
 
@@ -375,7 +376,7 @@ fn outlier_box_and_precision(world_pts: &[V3], h: f64, want_double: bool) -> (V3
             hi[k] = hi[k].max(p[k]);
         }
     }
-    let diag = geom::dist(lo, hi);
+    let diag = dist(lo, hi);
     for k in 0..3 {
         let pad = 0.05 * (hi[k] - lo[k]).max(0.01 * diag);
         lo[k] -= pad;
@@ -492,7 +493,7 @@ fn scan_mesh(p: &SynthParams, mut mesh: Mesh, parametric: bool) -> Result<Scan> 
     })?;
 
     let rot = rotation(p);
-    let world = |q: V3| geom::add(mat_vec(&rot, q), p.translate);
+    let world = |q: V3| add(mat_vec(&rot, q), p.translate);
     let world_vertices: Vec<V3> = model.mesh.vertices.iter().map(|&v| world(v)).collect();
     let (out_lo, out_hi, double) = outlier_box_and_precision(&world_vertices, h, p.double);
     let settings = sample::Settings {
@@ -661,7 +662,7 @@ fn scan_sphere(p: &SynthParams) -> Result<Scan> {
     let corners_of_box: Vec<V3> = (0..8)
         .map(|i| {
             let c = [0, 1, 2].map(|k| if (i >> k) & 1 == 1 { radius } else { -radius });
-            geom::add(c, p.translate) // a sphere's world box does not depend on R
+            add(c, p.translate) // a sphere's world box does not depend on R
         })
         .collect();
     let (out_lo, out_hi, double) = outlier_box_and_precision(&corners_of_box, h, p.double);

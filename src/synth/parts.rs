@@ -16,7 +16,7 @@
 //! Caps of extruded profiles are triangulated by ear clipping (Meisters, "Polygons have ears",
 //! 1975), which handles the non-convex L and staircase profiles.
 
-use super::geom::V3;
+use crate::geometry::V3;
 use crate::io::mesh::Mesh;
 
 /// The part to scan: a parametric shape or a triangle mesh file.
@@ -225,13 +225,14 @@ fn ear_clip(poly: &[[f64; 2]]) -> Vec<[u32; 3]> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::geometry::{cross, dot};
 
     fn signed_volume(m: &Mesh) -> f64 {
         m.triangles
             .iter()
             .map(|t| {
                 let [a, b, c] = t.map(|i| m.vertices[i as usize]);
-                super::super::geom::dot(a, super::super::geom::cross(b, c)) / 6.0
+                dot(a, cross(b, c)) / 6.0
             })
             .sum()
     }

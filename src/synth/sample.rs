@@ -30,10 +30,8 @@ use rayon::prelude::*;
 use super::PointTruth;
 use super::features::Model;
 use super::fillet::Fillets;
-use super::geom::{
-    V3, add, axpy, cross, derive, dist, dot, gauss3, mat_vec, mix, normalize, point_segment, scale,
-    sub, two_uniforms,
-};
+use super::geom::{derive, gauss3, mix, two_uniforms};
+use crate::geometry::{V3, add, axpy, cross, dist, dot, mat_vec, point_segment, scale, sub, unit};
 
 /// Nodes per tile side.
 const TILE: i64 = 48;
@@ -111,7 +109,7 @@ impl Frame {
         } else {
             [0.0, 1.0, 0.0]
         };
-        let u0 = normalize(cross(e, n)).unwrap_or([1.0, 0.0, 0.0]);
+        let u0 = unit(cross(e, n)).unwrap_or([1.0, 0.0, 0.0]);
         let v0 = cross(n, u0);
         let (sn, cs) = (std::f64::consts::TAU * a).sin_cos();
         let u = add(scale(u0, cs), scale(v0, sn));
@@ -474,17 +472,14 @@ pub fn fill_sphere(radius: f64, s: &Settings, positions: &mut [V3], truth: &mut 
                 let (sn, cs) = (golden * i as f64 + phase).sin_cos();
                 let dir = [rxy * cs, rxy * sn, z];
                 // Tangential jitter, then back onto the sphere.
-                let east = normalize(cross([0.0, 0.0, 1.0], dir)).unwrap_or([1.0, 0.0, 0.0]);
+                let east = unit(cross([0.0, 0.0, 1.0], dir)).unwrap_or([1.0, 0.0, 0.0]);
                 let north = cross(dir, east);
                 let (ju, jv) = two_uniforms(mix(derive(s.seed, &[TAG_SPHERE, i as u64])));
                 let jit = add(
                     scale(east, s.jitter * s.h * (ju - 0.5)),
                     scale(north, s.jitter * s.h * (jv - 0.5)),
                 );
-                let p = scale(
-                    normalize(add(scale(dir, radius), jit)).unwrap_or(dir),
-                    radius,
-                );
+                let p = scale(unit(add(scale(dir, radius), jit)).unwrap_or(dir), radius);
                 let (world, outlier) = s.finish(&mut rng, p, false);
                 *po = world;
                 *t = PointTruth {

@@ -17,9 +17,9 @@ use serde::{Deserialize, Serialize};
 
 use super::SynthParams;
 use super::features::MeshStats;
-use super::geom::{V3, closest_on_triangle, dist, norm, point_segment, sub};
 use super::index::GridIndex;
 use crate::error::{Error, Result};
+use crate::geometry::{V3, closest_on_triangle, dist, norm, point_segment, sub};
 
 /// Up to this many primitives the queries loop over all of them.
 pub const BRUTE_FORCE_LIMIT: usize = 64;

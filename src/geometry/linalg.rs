@@ -1,84 +1,20 @@
-//! Small fixed-size vector helpers over `[f64; D]` (D = 2 or 3) and a symmetric eigen solver.
+//! Small dense linear algebra on `[[f64; N]; N]`: a symmetric eigen solver, 2x2 and 3x3
+//! solvers and an orthonormal basis around a direction.
 //!
 //! Inputs and outputs are plain arrays so the fitting code stays allocation-free and generic
-//! over the dimension; nalgebra is not needed for 2x2 and 3x3 problems this small.
+//! over the dimension.
 
 // Index loops read like the formulas they implement (i, j, k over matrix entries).
 #![allow(clippy::needless_range_loop)]
 
-#[inline]
-pub(crate) fn sub<const D: usize>(a: &[f64; D], b: &[f64; D]) -> [f64; D] {
-    std::array::from_fn(|k| a[k] - b[k])
-}
-
-#[inline]
-pub(crate) fn add<const D: usize>(a: &[f64; D], b: &[f64; D]) -> [f64; D] {
-    std::array::from_fn(|k| a[k] + b[k])
-}
-
-#[inline]
-pub(crate) fn scale<const D: usize>(a: &[f64; D], s: f64) -> [f64; D] {
-    std::array::from_fn(|k| a[k] * s)
-}
-
-/// `a + s * b`.
-#[inline]
-pub(crate) fn axpy<const D: usize>(a: &[f64; D], s: f64, b: &[f64; D]) -> [f64; D] {
-    std::array::from_fn(|k| a[k] + s * b[k])
-}
-
-#[inline]
-pub(crate) fn dot<const D: usize>(a: &[f64; D], b: &[f64; D]) -> f64 {
-    let mut s = 0.0;
-    for k in 0..D {
-        s += a[k] * b[k];
-    }
-    s
-}
-
-#[inline]
-pub(crate) fn norm2<const D: usize>(a: &[f64; D]) -> f64 {
-    dot(a, a)
-}
-
-#[inline]
-pub(crate) fn norm<const D: usize>(a: &[f64; D]) -> f64 {
-    norm2(a).sqrt()
-}
-
-/// `a` scaled to unit length; `None` for a zero or non-finite vector.
-#[inline]
-pub(crate) fn unit<const D: usize>(a: &[f64; D]) -> Option<[f64; D]> {
-    let n = norm(a);
-    (n > 0.0 && n.is_finite()).then(|| scale(a, 1.0 / n))
-}
-
-#[inline]
-pub(crate) fn finite<const D: usize>(a: &[f64; D]) -> bool {
-    a.iter().all(|x| x.is_finite())
-}
-
-#[inline]
-pub(crate) fn cross(a: &[f64; 3], b: &[f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-
-/// Component of `v` perpendicular to the unit vector `d`.
-#[inline]
-pub(crate) fn reject<const D: usize>(v: &[f64; D], d: &[f64; D]) -> [f64; D] {
-    axpy(v, -dot(v, d), d)
-}
+use super::vec::{cross, dot, norm};
 
 /// Eigen decomposition of a symmetric D x D matrix by cyclic Jacobi rotations (Golub & Van
 /// Loan, *Matrix Computations*, §8.5). Returns the eigenvalues in descending order and the
 /// matching unit eigenvectors (`vectors[i]` belongs to `values[i]`). For D = 2 one rotation is
 /// exact; for D = 3 it converges quadratically in a handful of sweeps, and unlike the closed
 /// trigonometric formula it stays accurate when eigenvalues nearly coincide.
-pub(crate) fn sym_eigen<const D: usize>(m: &[[f64; D]; D]) -> ([f64; D], [[f64; D]; D]) {
+pub fn sym_eigen<const D: usize>(m: &[[f64; D]; D]) -> ([f64; D], [[f64; D]; D]) {
     let mut a = *m;
     let mut v = [[0.0; D]; D];
     for (k, row) in v.iter_mut().enumerate() {
@@ -138,9 +74,9 @@ pub(crate) fn sym_eigen<const D: usize>(m: &[[f64; D]; D]) -> ([f64; D], [[f64; 
 
 /// Solves the 2x2 system `[r0; r1] x = b`; `None` when the rows are (nearly) parallel, judged
 /// relative to their lengths so the test does not depend on units.
-pub(crate) fn solve2(r0: [f64; 2], r1: [f64; 2], b: [f64; 2]) -> Option<[f64; 2]> {
+pub fn solve2(r0: [f64; 2], r1: [f64; 2], b: [f64; 2]) -> Option<[f64; 2]> {
     let det = r0[0] * r1[1] - r0[1] * r1[0];
-    if det.abs() <= 1e-14 * norm(&r0) * norm(&r1) || !det.is_finite() {
+    if det.abs() <= 1e-14 * norm(r0) * norm(r1) || !det.is_finite() {
         return None;
     }
     Some([
@@ -151,23 +87,23 @@ pub(crate) fn solve2(r0: [f64; 2], r1: [f64; 2], b: [f64; 2]) -> Option<[f64; 2]
 
 /// Solves the symmetric 3x3 system `m x = b` by Cramer's rule; `None` when `m` is singular
 /// relative to its scale.
-pub(crate) fn solve3(m: &[[f64; 3]; 3], b: &[f64; 3]) -> Option<[f64; 3]> {
-    let c0 = cross(&m[1], &m[2]);
-    let det = dot(&m[0], &c0);
-    let scale = norm(&m[0]) * norm(&m[1]) * norm(&m[2]);
+pub fn solve3(m: &[[f64; 3]; 3], b: &[f64; 3]) -> Option<[f64; 3]> {
+    let c0 = cross(m[1], m[2]);
+    let det = dot(m[0], c0);
+    let scale = norm(m[0]) * norm(m[1]) * norm(m[2]);
     if det.abs() <= 1e-14 * scale || !det.is_finite() || scale == 0.0 {
         return None;
     }
     // Columns of the inverse are the cross products of rows (m is symmetric).
-    let c1 = cross(&m[2], &m[0]);
-    let c2 = cross(&m[0], &m[1]);
-    Some([dot(&c0, b) / det, dot(&c1, b) / det, dot(&c2, b) / det])
+    let c1 = cross(m[2], m[0]);
+    let c2 = cross(m[0], m[1]);
+    Some([dot(c0, b) / det, dot(c1, b) / det, dot(c2, b) / det])
 }
 
 /// An orthonormal pair spanning the plane perpendicular to the unit vector `d` (Frisvad's
 /// branch-free construction as corrected by Duff et al., "Building an Orthonormal Basis,
 /// Revisited", JCGT 2017).
-pub(crate) fn perp_basis(d: &[f64; 3]) -> ([f64; 3], [f64; 3]) {
+pub fn perp_basis(d: &[f64; 3]) -> ([f64; 3], [f64; 3]) {
     let sign = 1.0_f64.copysign(d[2]);
     let a = -1.0 / (sign + d[2]);
     let b = d[0] * d[1] * a;
@@ -197,8 +133,8 @@ mod tests {
         let (vals, vecs) = sym_eigen(&m);
         assert!((vals[0] - 3.0).abs() < 1e-14 && (vals[1] - 2.0).abs() < 1e-14);
         assert!((vals[2] - 1.0).abs() < 1e-14);
-        assert!((dot(&vecs[0], &r[0]).abs() - 1.0).abs() < 1e-14);
-        assert!((dot(&vecs[1], &r[2]).abs() - 1.0).abs() < 1e-14);
+        assert!((dot(vecs[0], r[0]).abs() - 1.0).abs() < 1e-14);
+        assert!((dot(vecs[1], r[2]).abs() - 1.0).abs() < 1e-14);
         let (v2, _) = sym_eigen(&[[2.0, 1.0], [1.0, 2.0]]);
         assert!((v2[0] - 3.0).abs() < 1e-15 && (v2[1] - 1.0).abs() < 1e-15);
     }
@@ -213,9 +149,9 @@ mod tests {
             [-0.48, 0.6, -0.64],
         ] {
             let (e1, e2) = perp_basis(&d);
-            assert!(dot(&e1, &d).abs() < 1e-15 && dot(&e2, &d).abs() < 1e-15);
-            assert!(dot(&e1, &e2).abs() < 1e-15);
-            assert!((norm(&e1) - 1.0).abs() < 1e-15 && (norm(&e2) - 1.0).abs() < 1e-15);
+            assert!(dot(e1, d).abs() < 1e-15 && dot(e2, d).abs() < 1e-15);
+            assert!(dot(e1, e2).abs() < 1e-15);
+            assert!((norm(e1) - 1.0).abs() < 1e-15 && (norm(e2) - 1.0).abs() < 1e-15);
         }
     }
 
