@@ -19,6 +19,7 @@ pub mod geometry;
 pub mod io;
 pub mod json;
 pub mod neighbours;
+pub mod outcome;
 pub mod pipeline;
 pub mod polyline;
 pub mod progress;

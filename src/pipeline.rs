@@ -13,20 +13,14 @@ use crate::config::Settings;
 use crate::corners::{self, CornerFit};
 use crate::edges::{self, EdgeError};
 use crate::error::{Error, Result};
-use crate::features::{self, Features, Scale};
+use crate::features::{self, Scale};
 use crate::io;
 use crate::neighbours::{self, Grid};
+use crate::outcome::{Outcome, Timing, describe};
 use crate::progress::Progress;
 use crate::rectify;
-use crate::report::{self, CornerOut, EdgeOut};
-use crate::segment::{self, Segments};
-
-/// Wall time of one stage.
-#[derive(Debug, Clone, serde::Serialize)]
-pub struct Timing {
-    pub stage: &'static str,
-    pub seconds: f64,
-}
+use crate::report;
+use crate::segment;
 
 /// What a run did, for the summary screen (report.json has the full detail).
 #[derive(Debug, Clone)]
@@ -42,24 +36,6 @@ pub struct Summary {
     pub failed: usize,
     pub timings: Vec<Timing>,
     pub outputs: Vec<PathBuf>,
-}
-
-/// Everything the stages computed, for the writers and for tests.
-pub struct Outcome {
-    pub cloud: Cloud,
-    pub scale: Scale,
-    pub features: Features,
-    pub segments: Segments,
-    /// Edges and corners as reported.
-    pub edges: Vec<EdgeOut>,
-    pub corners: Vec<CornerOut>,
-    /// Rectified positions (equal to the input where nothing moved) and the moved flags.
-    pub rectified: Vec<[f64; 3]>,
-    pub moved: Vec<bool>,
-    /// Edge id of every point (`u32::MAX` for none).
-    pub edge_label: Vec<u32>,
-    /// One line per fit that failed (counted and reported, never fatal).
-    pub failures: Vec<String>,
 }
 
 struct Clock {
@@ -279,7 +255,7 @@ pub fn process(cloud: Cloud, settings: &Settings, clock: &mut impl LapClock) -> 
         &settings.rectify,
     );
     clock.lap("rectify");
-    let (edges, corners) = report::describe(&fits, &geometry, &corner_list, &edge_of_run);
+    let (edges, corners) = describe(&fits, &geometry, &corner_list, &edge_of_run);
     Ok(Outcome {
         cloud,
         scale,

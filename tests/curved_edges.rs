@@ -6,7 +6,8 @@
 
 use sharpedge::config::Settings;
 use sharpedge::io::mesh::Mesh;
-use sharpedge::pipeline::{NoClock, Outcome, process};
+use sharpedge::outcome::Outcome;
+use sharpedge::pipeline::{NoClock, process};
 use sharpedge::synth::{GroundTruth, Part, Sampling, SynthParams, generate_from_mesh};
 
 /// A solid between two copies (z = ±half) of a closed outline, optionally with a hole: side

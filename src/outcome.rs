@@ -1,0 +1,177 @@
+//! What a run computed: the pipeline's result and the writers' input, so the writers
+//! (report.rs) need nothing from the pipeline that calls them.
+//!
+//! Input: the stages' fits (edges, their geometry, corners). Output: the edges and corners
+//! as reported ([`describe`]), gathered with the cloud and the per-point arrays in an
+//! [`Outcome`], and the stage [`Timing`]s.
+
+use serde::Serialize;
+
+use crate::cloud::Cloud;
+use crate::corners::{CornerFit, EdgeGeometry};
+use crate::edges::EdgeResult;
+use crate::features::{Features, Scale};
+use crate::geometry::{norm, sub};
+use crate::segment::Segments;
+
+/// Wall time of one stage.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct Timing {
+    pub stage: &'static str,
+    pub seconds: f64,
+}
+
+/// Everything the stages computed, for the writers and for tests.
+pub struct Outcome {
+    pub cloud: Cloud,
+    pub scale: Scale,
+    pub features: Features,
+    pub segments: Segments,
+    /// Edges and corners as reported.
+    pub edges: Vec<EdgeOut>,
+    pub corners: Vec<CornerOut>,
+    /// Rectified positions (equal to the input where nothing moved) and the moved flags.
+    pub rectified: Vec<[f64; 3]>,
+    pub moved: Vec<bool>,
+    /// Edge id of every point (`u32::MAX` for none).
+    pub edge_label: Vec<u32>,
+    /// One line per fit that failed (counted and reported, never fatal).
+    pub failures: Vec<String>,
+}
+
+/// One extracted edge as reported.
+#[derive(Debug, Clone, Serialize)]
+pub struct EdgeOut {
+    pub id: usize,
+    pub start: [f64; 3],
+    pub end: [f64; 3],
+    /// Unit direction from start to end.
+    pub direction: [f64; 3],
+    /// Number of scan points used to fit the edge.
+    pub points: usize,
+    /// RMS distance of the rectified edge points to the reported edge line.
+    pub rms: f64,
+    /// Corners at the start and end (ids into `corners`), when the edge ends at one.
+    pub corners: [Option<usize>; 2],
+    /// True for a convex edge (material inside the smaller angle), false for a concave one;
+    /// absent when not determined.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub convex: Option<bool>,
+    /// Dihedral angle between the two faces, in degrees, when fitted.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub dihedral_deg: Option<f64>,
+    /// The edge as a polyline, start to end (two points for a straight edge; a closed edge
+    /// ends where it starts).
+    pub polyline: Vec<[f64; 3]>,
+    /// The edge goes round a closed curve (a hole's rim): `start` = `end`, no corners.
+    pub closed: bool,
+    /// Rectified edge points (one per slab), not serialised in the report (features.ply has
+    /// them).
+    #[serde(skip)]
+    pub rectified: Vec<[f64; 3]>,
+    /// Fit errors summed over the slabs, per searcher.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub error: Option<FitErrors>,
+}
+
+/// Errors of a constrained fit by searcher (sum of point-to-line distances, the paper's
+/// Eq. 11/13).
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct FitErrors {
+    pub scheme1: f64,
+    pub pso: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub ga: Option<f64>,
+    pub exact: f64,
+}
+
+/// One extracted corner as reported.
+#[derive(Debug, Clone, Serialize)]
+pub struct CornerOut {
+    pub id: usize,
+    /// The corner: the particle swarm's constrained optimum.
+    pub position: [f64; 3],
+    /// Ids of the edges that meet here.
+    pub edges: Vec<usize>,
+    /// Errors of the constrained 3D fit by searcher; absent when the fit failed and the
+    /// position is where the edges' lines meet.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub error: Option<FitErrors>,
+    /// The corner by Scheme 1 (best data point) and by the exact optimum, for comparison.
+    pub scheme1: [f64; 3],
+    pub exact: [f64; 3],
+}
+
+/// Turns the fits into the reported edges and corners.
+pub fn describe(
+    fits: &[EdgeResult],
+    geometry: &[Option<EdgeGeometry>],
+    corners: &[CornerFit],
+    edge_of_run: &[Option<u32>],
+) -> (Vec<EdgeOut>, Vec<CornerOut>) {
+    let mut edges = Vec::new();
+    for (k, g) in geometry.iter().enumerate() {
+        let (Some(g), Ok(f), Some(id)) = (g, &fits[k], edge_of_run[k]) else {
+            continue;
+        };
+        let start = g.polyline[0];
+        let end = g.polyline[g.polyline.len() - 1];
+        let d = sub(end, start);
+        let len = norm(d);
+        let direction = if len > 0.0 {
+            d.map(|x| x / len)
+        } else {
+            f.line.1
+        };
+        let rectified: Vec<[f64; 3]> = f.slabs.iter().map(|s| s.corner).collect();
+        let rms = (rectified
+            .iter()
+            .map(|p| norm(sub(*p, g.nearest(*p).0)).powi(2))
+            .sum::<f64>()
+            / rectified.len().max(1) as f64)
+            .sqrt();
+        let sum = |j: usize| f.slabs.iter().map(|s| s.errors[j]).sum::<f64>();
+        edges.push(EdgeOut {
+            id: id as usize,
+            start,
+            end,
+            direction,
+            points: f.slabs.iter().map(|s| s.points).sum(),
+            rms,
+            corners: g.corners,
+            convex: None,
+            dihedral_deg: Some(f.dihedral_deg),
+            polyline: g.polyline.clone(),
+            closed: f.closed,
+            rectified,
+            error: Some(FitErrors {
+                scheme1: sum(0),
+                pso: sum(1),
+                ga: None,
+                exact: sum(2),
+            }),
+        });
+    }
+    let corners = corners
+        .iter()
+        .enumerate()
+        .map(|(id, c)| CornerOut {
+            id,
+            position: c.position,
+            edges: c
+                .edges
+                .iter()
+                .filter_map(|&k| edge_of_run[k].map(|e| e as usize))
+                .collect(),
+            error: c.errors[1].is_finite().then_some(FitErrors {
+                scheme1: c.errors[0],
+                pso: c.errors[1],
+                ga: None,
+                exact: c.errors[2],
+            }),
+            scheme1: c.scheme1,
+            exact: c.exact,
+        })
+        .collect();
+    (edges, corners)
+}
