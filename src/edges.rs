@@ -244,6 +244,29 @@ impl Stretch {
     }
 }
 
+impl Pass {
+    /// Counts `dropped` slabs as failed, the first reason kept for the report.
+    fn note_dropped(&mut self, dropped: usize, why: impl FnOnce() -> String) {
+        if dropped > 0 {
+            self.failed += dropped;
+            self.first_failure.get_or_insert_with(why);
+        }
+    }
+}
+
+/// The abnormal zone as the passes measured it.
+#[derive(Debug, Clone, Copy, Default)]
+struct Zone {
+    /// Half-width kept out of the side fits by the pass that was kept.
+    used: f64,
+    /// The measured half-width behind `used` (without the fitting margin).
+    raw: f64,
+    /// Whether any pass had enough points to measure it.
+    known: bool,
+}
+
+/// Fits one run: slab passes until the abnormal zone settles, then decides whether what was
+/// fitted is a sharp edge (see `keep_edge_slabs` and `judge_edge`).
 #[allow(clippy::too_many_arguments)]
 fn fit_run(
     positions: &[[f64; 3]],
@@ -259,52 +282,11 @@ fn fit_run(
     out: &mut ProfileFit,
 ) -> EdgeResult {
     let run = &segments.runs[k];
-    let r = scale.radius;
     let run_line = run.polyline().ok_or_else(|| {
         EdgeError::Failed(format!("edge {k}: its centre line collapsed to a point"))
     })?;
-    let band = params.band * r;
-    let stretch = if run.closed {
-        Stretch::Closed
-    } else {
-        // The usable stretch of the run: its extent, pulled back from vertices.
-        let length = run_line.length();
-        let mut s = [0.0, length];
-        for (e, v) in run.vertices.iter().enumerate() {
-            let Some(v) = *v else { continue };
-            let vertex = &segments.vertices[v];
-            // Our direction away from the vertex, and the other edges' directions away from it.
-            let (end, outward) = run.end(e, r);
-            let ours = outward.map(|x| -x);
-            let beyond = dot(sub(vertex.position, end), outward);
-            let sv = if e == 0 { -beyond } else { length + beyond };
-            // Where another edge leaves the vertex at an angle θ < 90° to ours, the face between
-            // them is only L·tan θ wide at distance L: the band must not reach across it.
-            let mut margin = params.vertex_margin * r;
-            for &(j, ej) in &vertex.ends {
-                if j == k {
-                    continue;
-                }
-                let theirs = segments.runs[j].end(ej, r).1.map(|x| -x);
-                let c = dot(ours, theirs).clamp(-1.0, 1.0);
-                if c > 1e-6 {
-                    let tan = (1.0 - c * c).sqrt() / c;
-                    margin = margin.max(band / tan.max(1e-3) + 0.5 * r);
-                }
-            }
-            s[e] = if e == 0 { sv + margin } else { sv - margin };
-        }
-        if s[1] - s[0] < r {
-            return Err(EdgeError::Failed(format!(
-                "edge {k}: too short between its vertices: {:.1} spacings long, its slabs must \
-                 keep clear of its vertices from {:.1} to {:.1} spacings along it",
-                length / scale.spacing,
-                s[0] / scale.spacing,
-                s[1] / scale.spacing
-            )));
-        }
-        Stretch::Open(run_line.at(s[0]), run_line.at(s[1]))
-    };
+    let band = params.band * scale.radius;
+    let stretch = usable_stretch(segments, k, &run_line, scale, params, band)?;
     let ctx = RunCtx {
         positions,
         outlier,
@@ -318,57 +300,139 @@ fn fit_run(
     // Pass 1 along the run's centre line: where the sharp edge is, roughly, and how wide its
     // abnormal zone is.
     let first = slab_pass(&ctx, &run_line, 0.0, None, band, rng, scratch, out)?;
-    // Later passes go along the line (or curve) through the previous pass's rectified edge
-    // points — slabs exactly across the edge, the approximate corner on it — and keep the
-    // abnormal zone measured from the previous pass's pooled residuals out of the side fits,
-    // with a band wide enough that the faces reach well beyond the zone (a sharp wedge's
-    // fillet is several spacings wide). A third pass runs only when the zone moved.
+    let (pass, zone) = settle_zone(&ctx, first, band, rng, scratch, out);
+    let mut pass = mean_face_pass(&ctx, pass, zone.used, band, rng, scratch, out);
+    keep_edge_slabs(&mut pass, k, scale, params)?;
+    judge_edge(pass, run.closed, k, zone, scale, params)
+}
+
+/// Where the slabs of run `k` may go: the whole closed curve, or the run's extent pulled back
+/// from its vertices so no slab's band reaches across a face to another edge; an error when
+/// nothing is left between them.
+fn usable_stretch(
+    segments: &Segments,
+    k: usize,
+    run_line: &Polyline,
+    scale: &Scale,
+    params: &EdgeParams,
+    band: f64,
+) -> Result<Stretch, EdgeError> {
+    let run = &segments.runs[k];
+    let r = scale.radius;
+    if run.closed {
+        return Ok(Stretch::Closed);
+    }
+    let length = run_line.length();
+    let mut s = [0.0, length];
+    for (e, v) in run.vertices.iter().enumerate() {
+        let Some(v) = *v else { continue };
+        let vertex = &segments.vertices[v];
+        // Our direction away from the vertex, and the other edges' directions away from it.
+        let (end, outward) = run.end(e, r);
+        let ours = outward.map(|x| -x);
+        let beyond = dot(sub(vertex.position, end), outward);
+        let sv = if e == 0 { -beyond } else { length + beyond };
+        // Where another edge leaves the vertex at an angle θ < 90° to ours, the face between
+        // them is only L·tan θ wide at distance L: the band must not reach across it.
+        let mut margin = params.vertex_margin * r;
+        for &(j, ej) in &vertex.ends {
+            if j == k {
+                continue;
+            }
+            let theirs = segments.runs[j].end(ej, r).1.map(|x| -x);
+            let c = dot(ours, theirs).clamp(-1.0, 1.0);
+            if c > 1e-6 {
+                let tan = (1.0 - c * c).sqrt() / c;
+                margin = margin.max(band / tan.max(1e-3) + 0.5 * r);
+            }
+        }
+        s[e] = if e == 0 { sv + margin } else { sv - margin };
+    }
+    if s[1] - s[0] < r {
+        return Err(EdgeError::Failed(format!(
+            "edge {k}: too short between its vertices: {:.1} spacings long, its slabs must \
+             keep clear of its vertices from {:.1} to {:.1} spacings along it",
+            length / scale.spacing,
+            s[0] / scale.spacing,
+            s[1] / scale.spacing
+        )));
+    }
+    Ok(Stretch::Open(run_line.at(s[0]), run_line.at(s[1])))
+}
+
+/// Later passes go along the line (or curve) through the previous pass's rectified edge
+/// points — slabs exactly across the edge, the approximate corner on it — and keep the
+/// abnormal zone measured from the previous pass's pooled residuals out of the side fits,
+/// with a band wide enough that the faces reach well beyond the zone (a sharp wedge's fillet
+/// is several spacings wide). A third pass runs only when the zone moved. Returns the last
+/// pass kept and its zone.
+fn settle_zone(
+    ctx: &RunCtx,
+    first: Pass,
+    band: f64,
+    rng: &mut SmallRng,
+    scratch: &mut ProfileScratch,
+    out: &mut ProfileFit,
+) -> (Pass, Zone) {
+    let (scale, r) = (ctx.scale, ctx.scale.radius);
     let mut pass = first;
-    let mut zone_used = 0.0;
-    let mut zone_raw = 0.0;
-    let mut zone_known = false;
+    let mut zone = Zone::default();
     for _ in 0..2 {
         let measured = abnormal_zone(
             &pass.residuals,
             scale,
-            2.0 * band.max(2.0 * zone_used + 2.0 * r),
+            2.0 * band.max(2.0 * zone.used + 2.0 * r),
         );
-        zone_known |= measured.is_some();
+        zone.known |= measured.is_some();
         let raw = measured.unwrap_or(0.0);
         // Fitting keeps half a bin more out: a side point must be clearly on its face.
-        let zone = if raw > 0.0 {
+        let next = if raw > 0.0 {
             raw + 0.25 * scale.spacing
         } else {
             0.0
         };
-        if zone_used > 0.0 && (zone - zone_used).abs() <= scale.spacing {
+        if zone.used > 0.0 && (next - zone.used).abs() <= scale.spacing {
             break;
         }
-        let (line, _, straight) = edge_line(&pass.slabs, scale, params);
-        let Some(centre) = next_centre(&ctx, &pass.slabs, line, straight) else {
+        let (line, _, straight) = edge_line(&pass.slabs, scale, ctx.params);
+        let Some(centre) = next_centre(ctx, &pass.slabs, line, straight) else {
             break;
         };
-        let wide = band.max(2.0 * zone + 2.0 * r);
-        match slab_pass(&ctx, &centre, zone, None, wide, rng, scratch, out) {
+        let wide = band.max(2.0 * next + 2.0 * r);
+        match slab_pass(ctx, &centre, next, None, wide, rng, scratch, out) {
             Ok(p) if p.slabs.len() >= 2 => {
                 pass = p;
-                zone_used = zone;
-                zone_raw = raw;
+                zone.used = next;
+                zone.raw = raw;
             }
             _ => break,
         }
     }
-    // A straight edge has the same two faces in every slab: a last pass gives every slab's
-    // constrained lines the edge's mean face directions (see `ProfileKnown::slopes`), so a
-    // slab's corner only carries the noise of its lines' offsets, not of their slopes.
-    let (line, _, straight) = edge_line(&pass.slabs, scale, params);
+    (pass, zone)
+}
+
+/// A straight edge has the same two faces in every slab: a last pass gives every slab's
+/// constrained lines the edge's mean face directions (see `ProfileKnown::slopes`), so a
+/// slab's corner only carries the noise of its lines' offsets, not of their slopes. A curved
+/// edge, or a pass that fails, keeps `pass`.
+#[allow(clippy::too_many_arguments)]
+fn mean_face_pass(
+    ctx: &RunCtx,
+    pass: Pass,
+    zone_used: f64,
+    band: f64,
+    rng: &mut SmallRng,
+    scratch: &mut ProfileScratch,
+    out: &mut ProfileFit,
+) -> Pass {
+    let (line, _, straight) = edge_line(&pass.slabs, ctx.scale, ctx.params);
     if straight
         && let Some(faces) = mean_faces(&pass.slabs)
-        && let Some(centre) = next_centre(&ctx, &pass.slabs, line, true)
+        && let Some(centre) = next_centre(ctx, &pass.slabs, line, true)
     {
-        let wide = band.max(2.0 * zone_used + 2.0 * r);
+        let wide = band.max(2.0 * zone_used + 2.0 * ctx.scale.radius);
         if let Ok(p) = slab_pass(
-            &ctx,
+            ctx,
             &centre,
             zone_used,
             Some(faces),
@@ -378,9 +442,21 @@ fn fit_run(
             out,
         ) && p.slabs.len() >= 2
         {
-            pass = p;
+            return p;
         }
     }
+    pass
+}
+
+/// Leaves out the slabs that did not see this edge: on a straight edge, corners far off its
+/// line; slabs whose faces hardly turn; on a curved edge, slabs beyond a jump in its course.
+/// An error (not an edge) when fewer than two slabs turn.
+fn keep_edge_slabs(
+    pass: &mut Pass,
+    k: usize,
+    scale: &Scale,
+    params: &EdgeParams,
+) -> Result<(), EdgeError> {
     let (line, _, straight) = edge_line(&pass.slabs, scale, params);
     if straight {
         // A slab far off the edge's line saw something else (a neighbouring face, a gap):
@@ -400,12 +476,9 @@ fn fit_run(
             d[i - 1] <= cut
         });
         let dropped = before - pass.slabs.len();
-        if dropped > 0 {
-            pass.failed += dropped;
-            pass.first_failure.get_or_insert_with(|| {
-                format!("edge {k}: {dropped} slab corner(s) off the edge's line left out")
-            });
-        }
+        pass.note_dropped(dropped, || {
+            format!("edge {k}: {dropped} slab corner(s) off the edge's line left out")
+        });
     }
     // Where the faces hardly turn (a crease fading out into a smooth surface), the slabs see
     // one surface bending, not an edge: they are left out, and so is a run made of them only.
@@ -420,14 +493,9 @@ fn fit_run(
             params.min_turn
         )));
     }
-    if dropped > 0 {
-        pass.failed += dropped;
-        pass.first_failure.get_or_insert_with(|| {
-            format!(
-                "edge {k}: {dropped} slab(s) whose faces turn by less than edges.min_turn left out"
-            )
-        });
-    }
+    pass.note_dropped(dropped, || {
+        format!("edge {k}: {dropped} slab(s) whose faces turn by less than edges.min_turn left out")
+    });
     let (_, _, straight) = edge_line(&pass.slabs, scale, params);
     if !straight {
         // A curved edge keeps one consistent stretch: where its slab corners jump or its faces'
@@ -437,12 +505,25 @@ fn fit_run(
         let dropped = pass.slabs.len() - keep.len();
         if dropped > 0 {
             pass.slabs = pass.slabs[keep].to_vec();
-            pass.failed += dropped;
-            pass.first_failure.get_or_insert_with(|| {
-                format!("edge {k}: {dropped} slab(s) beyond a jump in its course left out")
-            });
         }
+        pass.note_dropped(dropped, || {
+            format!("edge {k}: {dropped} slab(s) beyond a jump in its course left out")
+        });
     }
+    Ok(())
+}
+
+/// The edge as fitted, or not an edge: a fillet or curved surface (mostly arcs, or a
+/// rounding wider than `edges.max_rounding`), too few slabs to tell, or faces folding back
+/// onto one surface.
+fn judge_edge(
+    pass: Pass,
+    closed: bool,
+    k: usize,
+    zone: Zone,
+    scale: &Scale,
+    params: &EdgeParams,
+) -> EdgeResult {
     if pass.bends >= pass.slabs.len() {
         return Err(EdgeError::NotAnEdge(format!(
             "edge {k}: {} of its slab profiles are arcs wider than edges.max_rounding and only {} \
@@ -467,8 +548,8 @@ fn fit_run(
          dihedral {dihedral_deg:.1}°, {}",
         pass.slabs.len(),
         pass.failed,
-        zone_raw / scale.spacing,
-        if zone_known {
+        zone.raw / scale.spacing,
+        if zone.known {
             ""
         } else {
             " (too few points to measure)"
@@ -492,7 +573,7 @@ fn fit_run(
     // a noisy zone never turns a sharp obtuse edge into a fillet (seen: an octagonal prism's
     // edge at 6.0 spacings).
     let rounding =
-        (zone_raw - 0.5 * scale.spacing).max(0.0) * (0.5 * dihedral_deg.to_radians()).tan();
+        (zone.raw - 0.5 * scale.spacing).max(0.0) * (0.5 * dihedral_deg.to_radians()).tan();
     if rounding > params.max_rounding * scale.spacing {
         return Err(EdgeError::NotAnEdge(format!(
             "edge {k}: its faces meet through a rounding of radius {:.1} spacings, more than \
@@ -503,10 +584,10 @@ fn fit_run(
     }
     Ok(EdgeFit {
         run: k,
-        zone: zone_raw,
-        zone_known,
+        zone: zone.raw,
+        zone_known: zone.known,
         straight,
-        closed: run.closed,
+        closed,
         slabs: pass.slabs,
         line,
         rms,
@@ -916,30 +997,7 @@ fn slab_pass(
         return Err(format!("edge {k}: its centre line does not cover the edge"));
     }
     let closed = matches!(ctx.stretch, Stretch::Closed);
-    // Band points: within `band` of the centre line, each at the arc length of its nearest
-    // point on it (among the segments whose band found it), inside the usable stretch.
-    let mut hits: Vec<(u32, u32)> = Vec::new();
-    for seg in 0..centre.segments() {
-        let (a, b) = centre.segment(seg);
-        ctx.grid
-            .for_each_near_segment(a, b, band, |i| hits.push((i, seg as u32)));
-    }
-    hits.sort_unstable();
-    let mut band_pts: Vec<(f64, u32)> = Vec::new();
-    let mut segs: Vec<usize> = Vec::new();
-    for group in hits.chunk_by(|x, y| x.0 == y.0) {
-        let i = group[0].0;
-        if ctx.outlier[i as usize] {
-            continue;
-        }
-        segs.clear();
-        segs.extend(group.iter().map(|g| g.1 as usize));
-        let (t, _) = centre.project_among(ctx.positions[i as usize], &segs);
-        if t >= t0 && t <= t1 {
-            band_pts.push((t, i));
-        }
-    }
-    band_pts.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+    let band_pts = band_points(ctx, centre, band, (t0, t1));
     if band_pts.len() < 2 * params.slab_points.min(20) {
         return Err(format!(
             "edge {k}: only {} points in its band",
@@ -988,22 +1046,10 @@ fn slab_pass(
             slopes: faces.map(|f| f.map(|d| [dot(d, e1), dot(d, e2)])),
         };
         let res = fit_profile_2d_zone(&profile, [0.0, 0.0], &known, ctx.fit, rng, scratch, out);
-        // A profile that one circular arc, wider than any rounding a scan makes, follows
-        // better than the two constrained lines is a fillet or a curved surface, not two
-        // faces meeting (a sharp edge's profile is two lines, which no circle follows).
-        let res = res.and_then(|()| match smooth_bend(&profile, out) {
-            Some(radius) if radius > params.max_rounding * scale.spacing => {
-                pass.bends += 1;
-                Err(crate::Error::Degenerate {
-                    what: "slab profile",
-                    why: format!(
-                        "an arc of radius {:.1} spacings (a fillet or a curved surface, not an \
-                         edge)",
-                        radius / scale.spacing
-                    ),
-                })
-            }
-            _ => Ok(()),
+        let res = res.and_then(|()| {
+            let two_faces = not_an_arc(&profile, out, params, scale);
+            pass.bends += usize::from(two_faces.is_err());
+            two_faces
         });
         match res {
             Ok(()) => {
@@ -1013,34 +1059,13 @@ fn slab_pass(
                     let f = add(e1.map(|x| x * d[0]), e2.map(|x| x * d[1]));
                     f.map(|x| x / norm(f))
                 });
-                let pso = out.pso.point;
-                // The points to rectify: the fit's corner region and every point of the slab
-                // within the zone (with noise and spacing to spare) of the corner; rectify
-                // decides along the faces which of them really leave their face.
-                let reach = zone + 0.5 * scale.spacing + 2.0 * scale.noise;
-                let mut abnormal: Vec<u32> =
-                    out.corner_region.iter().map(|&j| members[j]).collect();
-                if zone > 0.0 {
-                    for (j, q) in profile.iter().enumerate() {
-                        if (q[0] - pso[0]).powi(2) + (q[1] - pso[1]).powi(2) <= reach * reach {
-                            abnormal.push(members[j]);
-                        }
-                    }
-                    abnormal.sort_unstable();
-                    abnormal.dedup();
-                }
-                let abnormal_reach = out
-                    .corner_region
-                    .iter()
-                    .map(|&j| {
-                        ((profile[j][0] - pso[0]).powi(2) + (profile[j][1] - pso[1]).powi(2)).sqrt()
-                    })
-                    .fold(zone, f64::max);
+                let (abnormal, abnormal_reach) =
+                    abnormal_points(&profile, &members, out, zone, scale);
                 collect_residuals(&profile, out, &mut pass.residuals);
                 pass.slabs.push(SlabFit {
                     t: tc,
                     tangent,
-                    corner: lift(pso),
+                    corner: lift(out.pso.point),
                     corner_scheme1: lift(out.scheme1.point),
                     corner_exact: lift(out.exact.point),
                     faces,
@@ -1063,6 +1088,95 @@ fn slab_pass(
             .unwrap_or_else(|| format!("edge {k}: fewer than two slabs fitted")));
     }
     Ok(pass)
+}
+
+/// The points of the band: within `band` of the centre line, each at the arc length of its
+/// nearest point on it (among the segments whose band found it), inside the usable stretch
+/// `(t0, t1)`, outliers left out; sorted by arc length (then index, so ties are
+/// deterministic).
+fn band_points(
+    ctx: &RunCtx,
+    centre: &Polyline,
+    band: f64,
+    (t0, t1): (f64, f64),
+) -> Vec<(f64, u32)> {
+    let mut hits: Vec<(u32, u32)> = Vec::new();
+    for seg in 0..centre.segments() {
+        let (a, b) = centre.segment(seg);
+        ctx.grid
+            .for_each_near_segment(a, b, band, |i| hits.push((i, seg as u32)));
+    }
+    hits.sort_unstable();
+    let mut band_pts: Vec<(f64, u32)> = Vec::new();
+    let mut segs: Vec<usize> = Vec::new();
+    for group in hits.chunk_by(|x, y| x.0 == y.0) {
+        let i = group[0].0;
+        if ctx.outlier[i as usize] {
+            continue;
+        }
+        segs.clear();
+        segs.extend(group.iter().map(|g| g.1 as usize));
+        let (t, _) = centre.project_among(ctx.positions[i as usize], &segs);
+        if t >= t0 && t <= t1 {
+            band_pts.push((t, i));
+        }
+    }
+    band_pts.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+    band_pts
+}
+
+/// An error when one circular arc, wider than any rounding a scan makes, follows the profile
+/// better than the two constrained lines: a fillet or a curved surface, not two faces meeting
+/// (a sharp edge's profile is two lines, which no circle follows).
+fn not_an_arc(
+    profile: &[[f64; 2]],
+    fit: &ProfileFit,
+    params: &EdgeParams,
+    scale: &Scale,
+) -> crate::Result<()> {
+    match smooth_bend(profile, fit) {
+        Some(radius) if radius > params.max_rounding * scale.spacing => {
+            Err(crate::Error::Degenerate {
+                what: "slab profile",
+                why: format!(
+                    "an arc of radius {:.1} spacings (a fillet or a curved surface, not an edge)",
+                    radius / scale.spacing
+                ),
+            })
+        }
+        _ => Ok(()),
+    }
+}
+
+/// The slab's points to rectify (indices into the cloud) and how far from the corner they
+/// reach: the fit's corner region and every point of the slab within the zone (with noise
+/// and spacing to spare) of the corner; rectify decides along the faces which of them really
+/// leave their face.
+fn abnormal_points(
+    profile: &[[f64; 2]],
+    members: &[u32],
+    fit: &ProfileFit,
+    zone: f64,
+    scale: &Scale,
+) -> (Vec<u32>, f64) {
+    let pso = fit.pso.point;
+    let reach = zone + 0.5 * scale.spacing + 2.0 * scale.noise;
+    let mut abnormal: Vec<u32> = fit.corner_region.iter().map(|&j| members[j]).collect();
+    if zone > 0.0 {
+        for (j, q) in profile.iter().enumerate() {
+            if (q[0] - pso[0]).powi(2) + (q[1] - pso[1]).powi(2) <= reach * reach {
+                abnormal.push(members[j]);
+            }
+        }
+        abnormal.sort_unstable();
+        abnormal.dedup();
+    }
+    let abnormal_reach = fit
+        .corner_region
+        .iter()
+        .map(|&j| ((profile[j][0] - pso[0]).powi(2) + (profile[j][1] - pso[1]).powi(2)).sqrt())
+        .fold(zone, f64::max);
+    (abnormal, abnormal_reach)
 }
 
 /// Appends (distance along the face from the exact corner, signed distance to the face's
