@@ -121,7 +121,24 @@ def resolve(segs, here):
     return None
 
 
-def deps_of(src, path, modules):
+def root_aliases(src, modules):
+    """Modules re-exported at the crate root (`pub use stages::{features, ...};` in lib.rs),
+    so `crate::features::X` is known to name `stages::features`."""
+    lib = os.path.join(src, "lib.rs")
+    if not os.path.exists(lib):
+        return {}
+    text = strip_comments_and_strings(open(lib, encoding="utf-8").read())
+    aliases = {}
+    for m in re.finditer(r"\bpub\s+use\s+([^;]+);", text):
+        for segs in expand_use_tree(m.group(1)):
+            if segs and segs[0] == "crate":
+                segs = segs[1:]
+            if tuple(segs) in modules:
+                aliases[segs[-1]] = tuple(segs)
+    return aliases
+
+
+def deps_of(src, path, modules, aliases):
     here = module_of(src, path)
     text = without_tests(strip_comments_and_strings(open(path, encoding="utf-8").read()))
     found = []
@@ -137,6 +154,8 @@ def deps_of(src, path, modules):
         absolute = resolve(segs, here)
         if absolute is None:
             continue
+        if absolute and absolute[0] in aliases and tuple(absolute[:1]) not in modules:
+            absolute = list(aliases[absolute[0]]) + absolute[1:]
         # The deepest module named by the path.
         target = None
         for k in range(len(absolute), 0, -1):
@@ -204,6 +223,11 @@ def self_test():
              '\n#[cfg(test)]\nmod tests { use crate::a::Z; }'},
             0,
         ),
+        "a module re-exported at the root": (
+            {"lib.rs": "pub use s::{t};", "s/mod.rs": "pub mod t;", "s/t.rs": "use crate::u::X;",
+             "u.rs": "use crate::t::Y;"},
+            1,
+        ),
         "a layered crate": ({"a.rs": "use crate::b::X;", "b.rs": "use crate::c::Y;", "c.rs": ""}, 0),
     }
     ok = True
@@ -231,9 +255,10 @@ def find_cycles(src):
         if m in (("lib",), ("main",)):
             continue
         modules[m] = f
+    aliases = root_aliases(src, modules)
     graph = {}
     for m, f in sorted(modules.items()):
-        _, deps = deps_of(src, f, modules)
+        _, deps = deps_of(src, f, modules, aliases)
         graph[m] = deps
     cycles = [sorted(c) for c in tarjan(graph) if len(c) > 1]
     return modules, cycles, graph
