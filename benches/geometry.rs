@@ -13,9 +13,10 @@ use std::hint::black_box;
 use std::time::Duration;
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use nalgebra::{Matrix3, Vector2, Vector3};
+use nalgebra::{Matrix3, SVector, Vector3};
 use rand::rngs::SmallRng;
 use rand::{RngExt, SeedableRng};
+use sharpedge::features::add_moments;
 use sharpedge::geometry::{norm, reject, sub};
 
 fn cloud(n: usize, seed: u64) -> Vec<[f64; 3]> {
@@ -42,22 +43,13 @@ fn neighbourhoods(n: usize, queries: usize) -> Vec<(usize, Vec<usize>)> {
         .collect()
 }
 
+/// The features stage's own accumulation (`features::add_moments`) on our offsets.
 fn moments_ours(pts: &[[f64; 3]], hoods: &[(usize, Vec<usize>)]) -> f64 {
     let mut acc = 0.0;
     for (q, ids) in hoods {
         let mut m = [0.0f64; 10];
         for &i in ids {
-            let d = sub(pts[i], pts[*q]);
-            m[0] += 1.0;
-            m[1] += d[0];
-            m[2] += d[1];
-            m[3] += d[2];
-            m[4] += d[0] * d[0];
-            m[5] += d[0] * d[1];
-            m[6] += d[0] * d[2];
-            m[7] += d[1] * d[1];
-            m[8] += d[1] * d[2];
-            m[9] += d[2] * d[2];
+            add_moments(&mut m, sub(pts[i], pts[*q]));
         }
         acc += m.iter().sum::<f64>();
     }
@@ -102,24 +94,12 @@ fn distances_ours<const N: usize>(pts: &[[f64; N]], lines: &[([f64; N], [f64; N]
     s
 }
 
-fn distances_nalgebra_3d(pts: &[[f64; 3]], lines: &[Line3]) -> f64 {
+fn distances_nalgebra<const N: usize>(pts: &[[f64; N]], lines: &[([f64; N], [f64; N])]) -> f64 {
     let mut s = 0.0;
     for (o, d) in lines {
-        let (o, d) = (Vector3::from(*o), Vector3::from(*d));
+        let (o, d) = (SVector::<f64, N>::from(*o), SVector::<f64, N>::from(*d));
         for p in pts {
-            let v = Vector3::from(*p) - o;
-            s += (v - d * v.dot(&d)).norm();
-        }
-    }
-    s
-}
-
-fn distances_nalgebra_2d(pts: &[[f64; 2]], lines: &[([f64; 2], [f64; 2])]) -> f64 {
-    let mut s = 0.0;
-    for (o, d) in lines {
-        let (o, d) = (Vector2::from(*o), Vector2::from(*d));
-        for p in pts {
-            let v = Vector2::from(*p) - o;
+            let v = SVector::<f64, N>::from(*p) - o;
             s += (v - d * v.dot(&d)).norm();
         }
     }
@@ -140,7 +120,7 @@ fn bench(c: &mut Criterion) {
     let mut g = c.benchmark_group("fit_distances_3d");
     g.bench_function("ours", |b| b.iter(|| distances_ours(black_box(&p3), &l3)));
     g.bench_function("nalgebra", |b| {
-        b.iter(|| distances_nalgebra_3d(black_box(&p3), &l3))
+        b.iter(|| distances_nalgebra(black_box(&p3), &l3))
     });
     g.finish();
 
@@ -149,7 +129,7 @@ fn bench(c: &mut Criterion) {
     let mut g = c.benchmark_group("fit_distances_2d");
     g.bench_function("ours", |b| b.iter(|| distances_ours(black_box(&p2), &l2)));
     g.bench_function("nalgebra", |b| {
-        b.iter(|| distances_nalgebra_2d(black_box(&p2), &l2))
+        b.iter(|| distances_nalgebra(black_box(&p2), &l2))
     });
     g.finish();
 }

@@ -123,7 +123,7 @@ pub fn local_pca(grid: &Grid, q: [f64; 3], r: f64) -> Option<LocalPca> {
 
 /// Adds an offset to the raw moments [n, Σx, Σy, Σz, Σxx, Σxy, Σxz, Σyy, Σyz, Σzz].
 #[inline]
-fn add_moments(m: &mut [f64; 10], d: [f64; 3]) {
+pub fn add_moments(m: &mut [f64; 10], d: [f64; 3]) {
     m[0] += 1.0;
     m[1] += d[0];
     m[2] += d[1];
