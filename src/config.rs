@@ -16,14 +16,14 @@ use serde::de::{self, Deserializer, Visitor};
 use serde::{Deserialize, Serialize};
 use toml::Spanned;
 
-use crate::corners::CornerParams;
-use crate::edges::EdgeParams;
 use crate::error::{Error, Result};
-use crate::features::FeatureParams;
 use crate::fit::FitParams;
 use crate::io::{NonFinite, PlyEncoding};
-use crate::rectify::RectifyParams;
-use crate::segment::SegmentParams;
+use crate::stages::corners::CornerParams;
+use crate::stages::edges::EdgeParams;
+use crate::stages::features::FeatureParams;
+use crate::stages::rectify::RectifyParams;
+use crate::stages::segment::SegmentParams;
 
 /// A length in model units, or `"auto"`: derived from the cloud's measured spacing and noise.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -8,12 +8,8 @@
 pub mod bench;
 pub mod cloud;
 pub mod config;
-pub mod corners;
-pub mod edges;
-pub mod eigen3;
 pub mod error;
 pub mod experiment;
-pub mod features;
 pub mod fit;
 pub mod geometry;
 pub mod io;
@@ -21,14 +17,15 @@ pub mod json;
 pub mod neighbours;
 pub mod outcome;
 pub mod pipeline;
-pub mod polyline;
 pub mod progress;
-pub mod rectify;
 pub mod report;
-pub mod segment;
+pub mod stages;
 pub mod synth;
 #[cfg(test)]
 pub(crate) mod testdata;
 
 pub use cloud::{Attribute, Cloud, Column, Source};
+// The stages' public paths of before they were grouped under stages/ (sharpedge::features,
+// ...) keep working; inside the crate they are named by their place (crate::stages::...).
 pub use error::{Error, Result};
+pub use stages::{corners, edges, features, rectify, segment};

@@ -8,11 +8,11 @@
 use serde::Serialize;
 
 use crate::cloud::Cloud;
-use crate::corners::{CornerFit, EdgeGeometry};
-use crate::edges::EdgeResult;
-use crate::features::{Features, Scale};
 use crate::geometry::{norm, sub};
-use crate::segment::Segments;
+use crate::stages::corners::{CornerFit, EdgeGeometry};
+use crate::stages::edges::EdgeResult;
+use crate::stages::features::{Features, Scale};
+use crate::stages::segment::Segments;
 
 /// Wall time of one stage.
 #[derive(Debug, Clone, serde::Serialize)]

@@ -10,17 +10,17 @@ use std::time::Instant;
 
 use crate::cloud::Cloud;
 use crate::config::Settings;
-use crate::corners::{self, CornerFit};
-use crate::edges::{self, EdgeError};
 use crate::error::{Error, Result};
-use crate::features::{self, Scale};
 use crate::io;
 use crate::neighbours::{self, Grid};
 use crate::outcome::{Outcome, Timing, describe};
 use crate::progress::Progress;
-use crate::rectify;
 use crate::report;
-use crate::segment;
+use crate::stages::corners::{self, CornerFit};
+use crate::stages::edges::{self, EdgeError};
+use crate::stages::features::{self, Scale};
+use crate::stages::rectify;
+use crate::stages::segment;
 
 /// What a run did, for the summary screen (report.json has the full detail).
 #[derive(Debug, Clone)]

@@ -23,7 +23,7 @@ use crate::outcome::{CornerOut, EdgeOut, Outcome, Timing};
 struct Report<'a> {
     sharpedge: &'static str,
     input: InputReport<'a>,
-    scale: crate::features::Scale,
+    scale: crate::stages::features::Scale,
     counts: Counts,
     timings: &'a [Timing],
     edges: &'a [EdgeOut],

@@ -19,8 +19,10 @@
 //! is good at: the general eigen solver and LU solve in [`lines::nearest_point_to_lines`] and
 //! [`lines::pca_line`].
 
+pub mod eigen3;
 pub mod linalg;
 pub mod lines;
+pub mod polyline;
 pub mod triangles;
 pub mod vec;
 

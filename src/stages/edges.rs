@@ -19,12 +19,12 @@ use rand::SeedableRng;
 use rand::rngs::SmallRng;
 use rayon::prelude::*;
 
-use crate::features::Scale;
 use crate::fit::{FitParams, ProfileFit, ProfileKnown, ProfileScratch, fit_profile_2d_zone};
+use crate::geometry::polyline::Polyline;
 use crate::geometry::{add, dot, norm, pca_line, perpendicular_basis, point_line_distance, sub};
 use crate::neighbours::Grid;
-use crate::polyline::Polyline;
-use crate::segment::Segments;
+use crate::stages::features::Scale;
+use crate::stages::segment::Segments;
 
 /// Half-width of the window a centre line's tangent is averaged over, in neighbourhood radii:
 /// several slabs or centre-line windows, short against any curve an edge run follows.

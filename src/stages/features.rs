@@ -22,7 +22,7 @@
 
 use rayon::prelude::*;
 
-use crate::eigen3;
+use crate::geometry::eigen3;
 
 use crate::error::{Error, Result};
 use crate::neighbours::{Block, Grid};

@@ -15,10 +15,10 @@ use rand::SeedableRng;
 use rand::rngs::SmallRng;
 use rayon::prelude::*;
 
-use crate::edges::{EdgeResult, Surface};
 use crate::fit::{FitParams, fit_corner_3d};
 use crate::geometry::{add, dot, nearest_point_to_lines, norm, pca_line, point_line_distance, sub};
-use crate::segment::Segments;
+use crate::stages::edges::{EdgeResult, Surface};
+use crate::stages::segment::Segments;
 
 /// Settings of the corner stage (validated by `config`).
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
@@ -309,7 +309,7 @@ pub fn edge_geometry(
                     [None, None] => vec![at(t_of(first)), at(t_of(last))],
                 }
             } else {
-                let mut pts = crate::edges::smooth_polyline(
+                let mut pts = crate::stages::edges::smooth_polyline(
                     &e.slabs.iter().map(|s| s.corner).collect::<Vec<_>>(),
                     2,
                     run.closed,

@@ -13,11 +13,11 @@
 //! corner's edges as that edge's abnormal zone reaches move onto the nearest face plane of
 //! the corner.
 
-use crate::corners::{CornerFit, EdgeGeometry};
-use crate::edges::{EdgeResult, mean_faces};
-use crate::features::Scale;
 use crate::geometry::{add, cross, dot, norm, sub};
 use crate::neighbours::Grid;
+use crate::stages::corners::{CornerFit, EdgeGeometry};
+use crate::stages::edges::{EdgeResult, mean_faces};
+use crate::stages::features::Scale;
 
 /// Settings of the rectify stage (validated by `config`).
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]

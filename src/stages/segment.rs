@@ -25,13 +25,13 @@
 
 use rayon::prelude::*;
 
-use crate::features::{Features, Scale};
+use crate::geometry::polyline::Polyline;
 use crate::geometry::{
     add, closest_between_rays, dot, nearest_point_to_lines, neg, norm, pca_line,
     perpendicular_basis, sub,
 };
 use crate::neighbours::Grid;
-use crate::polyline::Polyline;
+use crate::stages::features::{Features, Scale};
 
 /// Settings of the segment stage (validated by `config`).
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
@@ -1153,8 +1153,8 @@ impl UnionFind {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::features::{FeatureParams, estimate_scale, features};
     use crate::progress::Progress;
+    use crate::stages::features::{FeatureParams, estimate_scale, features};
     use crate::testdata::box_scan;
 
     /// A fixed rotation (not axis-aligned) so nothing lines up with the grid.
