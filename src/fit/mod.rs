@@ -80,6 +80,7 @@ pub mod corner;
 pub mod exact;
 pub mod ga;
 pub mod line;
+mod method;
 pub mod objective;
 pub mod params;
 pub mod problem;
