@@ -32,11 +32,16 @@ use super::objective::FixedSlopes3;
 use super::params::{FitParams, Searcher};
 use super::problem::{Frame, Problem};
 use super::propagate::propagate_run;
-use super::pso::{PsoParams, Search};
+use super::pso::Search;
 use super::vec::{cross, finite, norm, norm2, sub};
 use crate::{Error, Result};
 
 const WHAT: &str = "3D corner fit";
+
+/// The 3D specifics of the shared method (see `method`): k ≥ 2 lines, the objective of
+/// Eq. 13.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Vertex;
 
 /// A point of one side: (side, index within that side's slice), in the caller's numbering.
 pub type SidePoint = (usize, usize);
@@ -82,94 +87,6 @@ impl CornerFit {
     /// The corner found by `which`.
     pub fn corner(&self, which: Searcher) -> &Search<3> {
         chosen(which, &self.scheme1, &self.pso, &self.exact)
-    }
-}
-
-/// The 3D specifics of the shared method (see `method`): k ≥ 2 lines, the objective of
-/// Eq. 13.
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct Vertex;
-
-impl Case<3> for Vertex {
-    type Objective = FixedSlopes3;
-    const WHAT: &'static str = WHAT;
-    const APPROX: &'static str = "vertex";
-    const CANDIDATES: &'static str = "3D corner fit: corner candidates";
-    const PREPARE: &'static str = "prepare_corner_3d";
-    const DIVERGED: &'static str =
-        "the swarm left the finite range; the sides are too degenerate to fit";
-
-    fn iterations(pso: &PsoParams) -> usize {
-        pso.iterations_3d
-    }
-
-    fn sine(a: &[f64; 3], b: &[f64; 3]) -> f64 {
-        norm(&cross(a, b))
-    }
-
-    fn parallel() -> Error {
-        Error::Degenerate {
-            what: WHAT,
-            why: "all sides are parallel, so they have no unique common point; these edges \
-                  continue each other rather than meet at a vertex"
-                .into(),
-        }
-    }
-
-    /// The swarm's orthonormal frame, from the side directions taken in canonical order (so it
-    /// turns with the data and does not depend on the caller's side order): the first axis points
-    /// from the inside of the corner towards its tip (minus the sum of the outward directions),
-    /// the second is the first canonical side's direction made perpendicular to it, the third
-    /// completes a right-handed frame.
-    fn swarm_basis(local: &[Line3], canon: &[usize]) -> [[f64; 3]; 3] {
-        let mut sum = [0.0; 3];
-        for &j in canon {
-            sum = super::vec::add(&sum, &local[j].direction);
-        }
-        let first = local[canon[0]].direction;
-        let e1 = if norm(&sum) > 0.05 * canon.len() as f64 {
-            super::vec::scale(&sum, -1.0 / norm(&sum))
-        } else {
-            // The directions (nearly) cancel, e.g. a flat cross: use the normal of two of them.
-            canon[1..]
-                .iter()
-                .map(|&j| cross(&first, &local[j].direction))
-                .max_by(|a, b| norm(a).total_cmp(&norm(b)))
-                .and_then(|c| super::vec::unit(&c))
-                .unwrap_or([0.0, 0.0, 1.0])
-        };
-        let e2 = canon
-            .iter()
-            .map(|&j| super::vec::reject(&local[j].direction, &e1))
-            .find(|v| norm(v) > 0.1)
-            .and_then(|v| super::vec::unit(&v))
-            .unwrap_or_else(|| super::vec::perp_basis(&e1).0);
-        [e1, e2, cross(&e1, &e2)]
-    }
-
-    fn meeting_point(lines: &[Line3]) -> Option<[f64; 3]> {
-        lines_meeting_point(lines)
-    }
-
-    fn clear(obj: &mut FixedSlopes3) {
-        obj.clear();
-    }
-
-    fn add_line<'a>(
-        obj: &mut FixedSlopes3,
-        direction: &[f64; 3],
-        points: impl Iterator<Item = &'a [f64; 3]>,
-    ) {
-        obj.add_line(direction, points);
-    }
-
-    fn exact(
-        obj: &FixedSlopes3,
-        scale: f64,
-        params: &FitParams,
-        _scratch: &mut Vec<f64>,
-    ) -> Result<Exact<3>> {
-        exact_3d(obj, scale, &params.exact)
     }
 }
 
@@ -503,4 +420,60 @@ fn lines_meeting_point(lines: &[Line3]) -> Option<[f64; 3]> {
     };
     let q = [solve(0) / det, solve(1) / det, solve(2) / det];
     q.iter().all(|x| x.is_finite()).then_some(q)
+}
+
+impl Case<3> for Vertex {
+    const WHAT: &'static str = WHAT;
+    const APPROX: &'static str = "vertex";
+
+    fn sine(a: &[f64; 3], b: &[f64; 3]) -> f64 {
+        norm(&cross(a, b))
+    }
+    const PARALLEL: &'static str = "all sides are parallel, so they have no unique common \
+        point; these edges continue each other rather than meet at a vertex";
+
+    /// The swarm's orthonormal frame, from the side directions taken in canonical order (so it
+    /// turns with the data and does not depend on the caller's side order): the first axis points
+    /// from the inside of the corner towards its tip (minus the sum of the outward directions),
+    /// the second is the first canonical side's direction made perpendicular to it, the third
+    /// completes a right-handed frame.
+    fn swarm_basis(local: &[Line3], canon: &[usize]) -> [[f64; 3]; 3] {
+        let mut sum = [0.0; 3];
+        for &j in canon {
+            sum = super::vec::add(&sum, &local[j].direction);
+        }
+        let first = local[canon[0]].direction;
+        let e1 = if norm(&sum) > 0.05 * canon.len() as f64 {
+            super::vec::scale(&sum, -1.0 / norm(&sum))
+        } else {
+            // The directions (nearly) cancel, e.g. a flat cross: use the normal of two of them.
+            canon[1..]
+                .iter()
+                .map(|&j| cross(&first, &local[j].direction))
+                .max_by(|a, b| norm(a).total_cmp(&norm(b)))
+                .and_then(|c| super::vec::unit(&c))
+                .unwrap_or([0.0, 0.0, 1.0])
+        };
+        let e2 = canon
+            .iter()
+            .map(|&j| super::vec::reject(&local[j].direction, &e1))
+            .find(|v| norm(v) > 0.1)
+            .and_then(|v| super::vec::unit(&v))
+            .unwrap_or_else(|| super::vec::perp_basis(&e1).0);
+        [e1, e2, cross(&e1, &e2)]
+    }
+
+    fn meeting_point(lines: &[Line3]) -> Option<[f64; 3]> {
+        lines_meeting_point(lines)
+    }
+
+    type Objective = FixedSlopes3;
+    /// Weiszfeld / IRLS with Newton steps (`exact_3d`), tolerances relative to the
+    /// candidates' extent.
+    fn exact(p: &mut Prepared<3, FixedSlopes3>, params: &FitParams) -> Result<Exact<3>> {
+        exact_3d(&p.obj, p.cand_scale, &params.exact)
+    }
+    const CANDIDATES: &'static str = "3D corner fit: corner candidates";
+    const PREPARE: &'static str = "prepare_corner_3d";
+    const DIVERGED: &'static str = "the sides are";
 }

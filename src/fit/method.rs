@@ -46,58 +46,44 @@ use rand::Rng;
 
 use super::exact::Exact;
 use super::line::Line;
-use super::objective::Objective;
+use super::objective::FixedSlopes;
 use super::params::{FitParams, Searcher};
 use super::problem::{Frame, Problem, grow_and_cap, nearest_on_rays, rms_radius};
 use super::propagate::{line_residuals, noise_from_residuals, side_fit};
-use super::pso::{PsoParams, Search, SwarmScratch, pso};
+use super::pso::{Search, SwarmScratch, pso};
 use super::scheme1::scheme1;
 use super::vec::{dot, finite};
 use crate::{Error, Result};
 
 /// What the 2D profile fit and the 3D vertex fit do differently once their sides are known:
 /// the objective and its exact minimum, the swarm's frame, where the local lines meet, and
-/// the words of their errors.
+/// the words of their errors. Grouped by the step that uses them.
 pub(crate) trait Case<const D: usize> {
-    /// The fixed-slope objective of this dimension (Eq. 11 or Eq. 13).
-    type Objective: Objective<D> + Clone + Debug + Default;
-    /// The fit's name in errors.
+    /// The fit's name in errors, and what its approximate point is called ("corner",
+    /// "vertex"): the words of the local frame's errors.
     const WHAT: &'static str;
-    /// What the approximate point is called in errors ("corner", "vertex").
     const APPROX: &'static str;
-    /// The candidates' name in the error for none.
-    const CANDIDATES: &'static str;
-    /// The preparing function, named by the error for solving an unprepared problem.
-    const PREPARE: &'static str;
-    /// The error for a swarm that left the finite range.
-    const DIVERGED: &'static str;
 
-    /// The PSO's iterations in this dimension.
-    fn iterations(pso: &PsoParams) -> usize;
-    /// |sin| of the angle between two unit directions.
+    /// |sin| of the angle between two unit directions, and why sides less than
+    /// `min_angle_deg` apart cannot be fitted (the non-parallel check).
     fn sine(a: &[f64; D], b: &[f64; D]) -> f64;
-    /// The error for sides that are all (nearly) parallel.
-    fn parallel() -> Error;
+    const PARALLEL: &'static str;
+
     /// The swarm's orthonormal frame (rows) from the local lines taken in `canon` order.
     fn swarm_basis(lines: &[Line<D>], canon: &[usize]) -> [[f64; D]; D];
     /// Where the local lines meet (their intersection, or least-squares point); `None` when
     /// they are (nearly) parallel.
     fn meeting_point(lines: &[Line<D>]) -> Option<[f64; D]>;
-    /// Empties the objective, keeping its buffers.
-    fn clear(obj: &mut Self::Objective);
-    /// Adds a line of unit `direction` scored against `points`.
-    fn add_line<'a>(
-        obj: &mut Self::Objective,
-        direction: &[f64; D],
-        points: impl Iterator<Item = &'a [f64; D]>,
-    );
-    /// The exact minimum of the objective (`scale`: the candidates' extent).
-    fn exact(
-        obj: &Self::Objective,
-        scale: f64,
-        params: &FitParams,
-        scratch: &mut Vec<f64>,
-    ) -> Result<Exact<D>>;
+
+    /// The fixed-slope objective of this dimension (Eq. 11 or Eq. 13), and its exact minimum.
+    type Objective: FixedSlopes<D> + Clone + Debug + Default;
+    fn exact(p: &mut Prepared<D, Self::Objective>, params: &FitParams) -> Result<Exact<D>>;
+    /// The searches' errors: the candidates' name when there are none, the preparing
+    /// function when there is no problem, and what is too degenerate when the swarm leaves
+    /// the finite range ("the profile is").
+    const CANDIDATES: &'static str;
+    const PREPARE: &'static str;
+    const DIVERGED: &'static str;
 }
 
 /// The shared state of a fit: the prepared problem in the local frame, and the work buffers
@@ -123,16 +109,18 @@ pub(crate) struct Prepared<const D: usize, O> {
     pub(crate) res: Vec<f64>,
     pub(crate) buf: Vec<[f64; D]>,
     pub(crate) order: Vec<usize>,
+    /// The objective, and the candidates' extent (the exact solvers' scale).
+    pub(crate) obj: O,
+    pub(crate) cand_scale: f64,
+    /// Scratch of the exact solver.
+    pub(crate) exact: Vec<f64>,
     cand: Vec<[f64; D]>,
-    cand_scale: f64,
     basis: [[f64; D]; D],
     meeting: Option<[f64; D]>,
-    obj: O,
     flag: Vec<bool>,
     /// The swarm's starting positions (candidates, plus the lines' meeting point if asked).
     init: Vec<[f64; D]>,
     swarm: SwarmScratch<D>,
-    exact: Vec<f64>,
 }
 
 impl<const D: usize, O: Default> Default for Prepared<D, O> {
@@ -148,15 +136,15 @@ impl<const D: usize, O: Default> Default for Prepared<D, O> {
             res: Vec::new(),
             buf: Vec::new(),
             order: Vec::new(),
-            cand: Vec::new(),
+            obj: O::default(),
             cand_scale: 0.0,
+            exact: Vec::new(),
+            cand: Vec::new(),
             basis: [[0.0; D]; D],
             meeting: None,
-            obj: O::default(),
             flag: Vec::new(),
             init: Vec::new(),
             swarm: SwarmScratch::default(),
-            exact: Vec::new(),
         }
     }
 }
@@ -272,13 +260,10 @@ pub(crate) fn pose<const D: usize, C: Case<D>>(
     check_not_parallel::<D, C>(&p.lines, params)?;
     choose_candidates(p, params, sigma);
     p.basis = C::swarm_basis(&p.lines, &p.canon);
-    C::clear(&mut p.obj);
+    p.obj.clear();
     for (&j, assigned) in p.canon.iter().zip(&p.assigned) {
-        C::add_line(
-            &mut p.obj,
-            &p.lines[j].direction,
-            assigned.iter().map(|&i| &p.loc[i]),
-        );
+        p.obj
+            .add_line(&p.lines[j].direction, assigned.iter().map(|&i| &p.loc[i]));
     }
     p.meeting = C::meeting_point(&p.lines);
     p.frame = Some(frame);
@@ -299,7 +284,10 @@ pub(crate) fn check_not_parallel<const D: usize, C: Case<D>>(
         }
     }
     if widest < sin_min {
-        return Err(C::parallel());
+        return Err(Error::Degenerate {
+            what: C::WHAT,
+            why: C::PARALLEL.into(),
+        });
     }
     Ok(())
 }
@@ -388,12 +376,12 @@ pub(crate) fn solve<const D: usize, C: Case<D>, R: Rng + ?Sized>(
         &p.basis,
         p.cand_scale,
         &params.pso,
-        C::iterations(&params.pso),
+        params.pso.iterations(D),
         rng,
         &mut p.swarm,
         history,
     );
-    let ex = C::exact(&p.obj, p.cand_scale, params, &mut p.exact)?;
+    let ex = C::exact(p, params)?;
     let to_input = |r: Search<D>| Search {
         point: frame.to_input(&r.point),
         error: frame.length_to_input(r.error),
@@ -417,7 +405,10 @@ pub(crate) fn solve<const D: usize, C: Case<D>, R: Rng + ?Sized>(
     if !(found.pso.error.is_finite() && finite(&found.pso.point)) {
         return Err(Error::Degenerate {
             what: C::WHAT,
-            why: C::DIVERGED.into(),
+            why: format!(
+                "the swarm left the finite range; {} too degenerate to fit",
+                C::DIVERGED
+            ),
         });
     }
     Ok(found)

@@ -100,7 +100,7 @@ pub use line::{
     Line, Line2, Line3, LineAcc, LineForm, PaperLine3, PaperRotation, fit_line, fit_line_2d_paper,
     fit_line_2d_paper_raw, fit_line_3d_paper, fit_line_3d_paper_raw, fit_line_form,
 };
-pub use objective::{FixedSlopes2, FixedSlopes3, JointSlopes, Objective, fitness};
+pub use objective::{FixedSlopes, FixedSlopes2, FixedSlopes3, JointSlopes, Objective, fitness};
 pub use params::{FitParams, Searcher};
 pub use problem::{Frame, Problem};
 pub use profile::{ProfileFit, ProfileKnown, ProfileScratch, prepare_profile_2d, solve_profile_2d};

@@ -37,11 +37,15 @@ use super::objective::FixedSlopes2;
 use super::params::{FitParams, Searcher};
 use super::problem::{Frame, Problem};
 use super::propagate::propagate_run;
-use super::pso::{PsoParams, Search};
+use super::pso::Search;
 use super::vec::{dot, finite, norm2, scale, sub, unit};
 use crate::{Error, Result};
 
 const WHAT: &str = "2D profile fit";
+
+/// The 2D specifics of the shared method (see `method`): two lines, the objective of Eq. 11.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Profile;
 
 /// Result of [`super::fit_profile_2d`], in input coordinates. Reuse one across calls with
 /// [`super::fit_profile_2d_with`] to avoid allocating.
@@ -93,73 +97,6 @@ impl ProfileFit {
     }
 }
 
-/// The 2D specifics of the shared method (see `method`): two lines, the objective of Eq. 11.
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct Profile;
-
-impl Case<2> for Profile {
-    type Objective = FixedSlopes2;
-    const WHAT: &'static str = WHAT;
-    const APPROX: &'static str = "corner";
-    const CANDIDATES: &'static str = "2D profile fit: corner candidates";
-    const PREPARE: &'static str = "prepare_profile_2d";
-    const DIVERGED: &'static str =
-        "the swarm left the finite range; the profile is too degenerate to fit";
-
-    fn iterations(pso: &PsoParams) -> usize {
-        pso.iterations_2d
-    }
-
-    fn sine(a: &[f64; 2], b: &[f64; 2]) -> f64 {
-        cross2(a, b).abs()
-    }
-
-    fn parallel() -> Error {
-        Error::Degenerate {
-            what: WHAT,
-            why: "the two sides are parallel (all points on one line?), so there is no corner \
-                  to fit; lower min_angle_deg only if the profile really is this flat"
-                .into(),
-        }
-    }
-
-    /// First axis along the bisector towards the tip (the abnormal zone lies inside the angle,
-    /// the corner at its tip), second axis 90° counter-clockwise from it.
-    fn swarm_basis(lines: &[Line2], canon: &[usize]) -> [[f64; 2]; 2] {
-        let (a, b) = (lines[canon[0]].direction, lines[canon[1]].direction);
-        let tip = unit(&scale(&[a[0] + b[0], a[1] + b[1]], -1.0)).unwrap_or([-a[1], a[0]]);
-        [tip, [-tip[1], tip[0]]]
-    }
-
-    /// On a narrow V the error is nearly flat along the bisector: a swarm started only on
-    /// corner-region points (inside the V) stops inside it. The local fits' intersection
-    /// centres it on the optimum region (`seed_with_intersection`).
-    fn meeting_point(lines: &[Line2]) -> Option<[f64; 2]> {
-        intersection(&lines[0], &lines[1])
-    }
-
-    fn clear(obj: &mut FixedSlopes2) {
-        obj.clear();
-    }
-
-    fn add_line<'a>(
-        obj: &mut FixedSlopes2,
-        direction: &[f64; 2],
-        points: impl Iterator<Item = &'a [f64; 2]>,
-    ) {
-        obj.add_line(direction, points);
-    }
-
-    fn exact(
-        obj: &FixedSlopes2,
-        _scale: f64,
-        _params: &FitParams,
-        scratch: &mut Vec<f64>,
-    ) -> Result<Exact<2>> {
-        exact_2d(obj, scratch)
-    }
-}
-
 /// Work buffers for the 2D profile fit; keep one per thread.
 #[derive(Clone, Debug, Default)]
 pub struct ProfileScratch {
@@ -183,10 +120,6 @@ impl ProfileScratch {
     pub fn problem(&self) -> Option<Problem<'_, 2, FixedSlopes2>> {
         self.fit.problem()
     }
-}
-
-fn cross2(a: &[f64; 2], b: &[f64; 2]) -> f64 {
-    a[0] * b[1] - a[1] * b[0]
 }
 
 /// Steps 1–3 up to the prepared search problem (left in `scratch`): arms, propagation, local
@@ -649,4 +582,43 @@ fn intersection(a: &Line2, b: &Line2) -> Option<[f64; 2]> {
     let t = (w[0] * (-e[1]) - (-e[0]) * w[1]) / det;
     let q = [a.point[0] + t * d[0], a.point[1] + t * d[1]];
     q.iter().all(|x| x.is_finite()).then_some(q)
+}
+
+fn cross2(a: &[f64; 2], b: &[f64; 2]) -> f64 {
+    a[0] * b[1] - a[1] * b[0]
+}
+
+impl Case<2> for Profile {
+    const WHAT: &'static str = WHAT;
+    const APPROX: &'static str = "corner";
+
+    fn sine(a: &[f64; 2], b: &[f64; 2]) -> f64 {
+        cross2(a, b).abs()
+    }
+    const PARALLEL: &'static str = "the two sides are parallel (all points on one line?), so \
+        there is no corner to fit; lower min_angle_deg only if the profile really is this flat";
+
+    /// First axis along the bisector towards the tip (the abnormal zone lies inside the angle,
+    /// the corner at its tip), second axis 90° counter-clockwise from it.
+    fn swarm_basis(lines: &[Line2], canon: &[usize]) -> [[f64; 2]; 2] {
+        let (a, b) = (lines[canon[0]].direction, lines[canon[1]].direction);
+        let tip = unit(&scale(&[a[0] + b[0], a[1] + b[1]], -1.0)).unwrap_or([-a[1], a[0]]);
+        [tip, [-tip[1], tip[0]]]
+    }
+
+    /// On a narrow V the error is nearly flat along the bisector: a swarm started only on
+    /// corner-region points (inside the V) stops inside it. The local fits' intersection
+    /// centres it on the optimum region (`seed_with_intersection`).
+    fn meeting_point(lines: &[Line2]) -> Option<[f64; 2]> {
+        intersection(&lines[0], &lines[1])
+    }
+
+    type Objective = FixedSlopes2;
+    /// The pair of medians (`exact_2d`).
+    fn exact(p: &mut Prepared<2, FixedSlopes2>, _params: &FitParams) -> Result<Exact<2>> {
+        exact_2d(&p.obj, &mut p.exact)
+    }
+    const CANDIDATES: &'static str = "2D profile fit: corner candidates";
+    const PREPARE: &'static str = "prepare_profile_2d";
+    const DIVERGED: &'static str = "the profile is";
 }
