@@ -136,13 +136,8 @@ pub fn prepare_corner_3d(
     let s = scratch;
     s.fit.frame = None;
     let min_side = params.min_side_points.max(2);
-    check_sides(sides, min_side)?;
-    method::check_approx::<3, Vertex>(&approx)?;
-    canonical_order(s, sides, &approx);
-    let total: usize = sides.iter().map(|s| s.len()).sum();
-    let sum_sq = s.fit.canon.iter().map(|&j| s.sq[j]).sum::<f64>();
-    let frame = method::local_frame::<3, Vertex>(approx, sum_sq, total)?;
-    to_local(s, sides, &frame);
+    check_sides(sides, &approx, min_side)?;
+    let frame = to_local_frame(s, sides, approx)?;
 
     order_sides(s, sides.len())?;
     let runs = s.runs.iter().map(Vec::as_slice);
@@ -160,8 +155,8 @@ pub fn prepare_corner_3d(
 }
 
 /// Rejects what cannot be fitted: fewer than two sides, a side with fewer than `min_side`
-/// points or a non-finite point.
-fn check_sides(sides: &[&[[f64; 3]]], min_side: usize) -> Result<()> {
+/// points, a non-finite point or approximate vertex.
+fn check_sides(sides: &[&[[f64; 3]]], approx: &[f64; 3], min_side: usize) -> Result<()> {
     if sides.len() < 2 {
         return Err(Error::TooFewPoints {
             what: "3D corner fit: sides (edges meeting at the vertex)",
@@ -190,7 +185,22 @@ fn check_sides(sides: &[&[[f64; 3]]], min_side: usize) -> Result<()> {
             });
         }
     }
-    Ok(())
+    method::check_approx::<3, Vertex>(approx)
+}
+
+/// The local frame (centred on the approximate vertex, unit = the points' RMS distance from
+/// it, summed in canonical side order), and all sides' points in it.
+fn to_local_frame(
+    s: &mut CornerScratch,
+    sides: &[&[[f64; 3]]],
+    approx: [f64; 3],
+) -> Result<Frame<3>> {
+    canonical_order(s, sides, &approx);
+    let total: usize = sides.iter().map(|s| s.len()).sum();
+    let sum_sq = s.fit.canon.iter().map(|&j| s.sq[j]).sum::<f64>();
+    let frame = method::local_frame::<3, Vertex>(approx, sum_sq, total)?;
+    to_local(s, sides, &frame);
+    Ok(frame)
 }
 
 /// Canonical side order (`s.fit.canon`), from quantities that do not change under rotation,

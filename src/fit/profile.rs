@@ -174,13 +174,7 @@ pub fn prepare_profile_2d_zone(
     s.fit.frame = None;
     let min_side = params.min_side_points.max(2);
     check_profile(points, &approx_corner, min_side)?;
-    let sum_sq = points
-        .iter()
-        .map(|p| norm2(&sub(p, &approx_corner)))
-        .sum::<f64>();
-    let frame = method::local_frame::<2, Profile>(approx_corner, sum_sq, points.len())?;
-    s.fit.loc.clear();
-    s.fit.loc.extend(points.iter().map(|p| frame.to_local(p)));
+    let frame = to_local_frame(s, points, approx_corner)?;
 
     let arm_line = split_into_arms(s, params)?;
     // Noise: far halves of the arms against their own lines.
@@ -232,6 +226,23 @@ fn check_profile(points: &[[f64; 2]], approx_corner: &[f64; 2], min_side: usize)
         });
     }
     Ok(())
+}
+
+/// The local frame (centred on the approximate corner, unit = the points' RMS distance from
+/// it), and the points in it (`s.fit.loc`).
+fn to_local_frame(
+    s: &mut ProfileScratch,
+    points: &[[f64; 2]],
+    approx_corner: [f64; 2],
+) -> Result<Frame<2>> {
+    let sum_sq = points
+        .iter()
+        .map(|p| norm2(&sub(p, &approx_corner)))
+        .sum::<f64>();
+    let frame = method::local_frame::<2, Profile>(approx_corner, sum_sq, points.len())?;
+    s.fit.loc.clear();
+    s.fit.loc.extend(points.iter().map(|p| frame.to_local(p)));
+    Ok(frame)
 }
 
 /// Step 1: the two arms. Returns a line through each arm's cluster of far points (direction
