@@ -97,6 +97,24 @@ impl ProfileFit {
     }
 }
 
+/// What the caller already knows about a profile, from the other slabs of the same edge.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ProfileKnown {
+    /// The abnormal zone: points closer than this (input units) to the approximate corner
+    /// are never side points, whatever the propagation says. The 3D pipeline measures it once
+    /// per edge from the residuals of all its slabs, which sees where a tangent-continuous
+    /// fillet leaves the faces far better than one slab can. 0 = unknown.
+    pub zone: f64,
+    /// The directions of the two faces (unit, in the profile's plane, either orientation):
+    /// the slopes of the constrained lines. The paper takes them from the two local fits of
+    /// the profile; along a straight edge every slab sees the same faces, and their mean
+    /// over all slabs is far steadier than one slab's fit (measured on a 30,000-point box:
+    /// per-slab corners scatter 0.11 spacings with their own slopes). Each side's local line
+    /// then keeps this direction through the centroid of its points (the total least squares
+    /// line of given direction).
+    pub slopes: Option<[[f64; 2]; 2]>,
+}
+
 /// Work buffers for the 2D profile fit; keep one per thread.
 #[derive(Clone, Debug, Default)]
 pub struct ProfileScratch {
@@ -140,24 +158,6 @@ pub fn prepare_profile_2d(
         scratch,
         out,
     )
-}
-
-/// What the caller already knows about a profile, from the other slabs of the same edge.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct ProfileKnown {
-    /// The abnormal zone: points closer than this (input units) to the approximate corner
-    /// are never side points, whatever the propagation says. The 3D pipeline measures it once
-    /// per edge from the residuals of all its slabs, which sees where a tangent-continuous
-    /// fillet leaves the faces far better than one slab can. 0 = unknown.
-    pub zone: f64,
-    /// The directions of the two faces (unit, in the profile's plane, either orientation):
-    /// the slopes of the constrained lines. The paper takes them from the two local fits of
-    /// the profile; along a straight edge every slab sees the same faces, and their mean
-    /// over all slabs is far steadier than one slab's fit (measured on a 30,000-point box:
-    /// per-slab corners scatter 0.11 spacings with their own slopes). Each side's local line
-    /// then keeps this direction through the centroid of its points (the total least squares
-    /// line of given direction).
-    pub slopes: Option<[[f64; 2]; 2]>,
 }
 
 /// [`prepare_profile_2d`] with what is known from the rest of the edge (see
