@@ -2,31 +2,46 @@
 //! corner, 4 at a pyramid apex), each given as the 3D points of one edge (the rectified edge
 //! points), plus an approximate vertex.
 //!
-//! Steps, all in a local frame centred on the approximate vertex (see `problem`): per side, a
-//! total-least-squares line orients the side away from the vertex and orders its points far
-//! end first; line propagation (§2.1) splits each side into its straight part and its share of
-//! the corner region; the local fits (PCA or the paper's Eq. 2–8 form) fix the slopes; Scheme
-//! 1, the PSO (§3, 10 iterations) and the exact Weiszfeld/Newton solver find the common point.
-//! Sides are processed in a canonical order (by point count, then by mean distance from the
-//! approximate vertex), so permuting the sides does not change the random draws.
+//! The fit is the method of `method` (stated once for k lines in D dimensions: local frame,
+//! sides ordered far end first, noise, propagation, local fits, the constrained problem, the
+//! searches, rectification) with the 3D specifics here, all in the local frame centred on the
+//! approximate vertex:
+//! - The sides are the caller's k runs. They are taken in a canonical order (by point count,
+//!   then by mean distance from the approximate vertex: `canonical_order`), so permuting the
+//!   sides does not change the random draws or any sum over sides.
+//! - Per side, a total-least-squares line orients the side away from the vertex and orders its
+//!   points far end first (`order_sides`); line propagation (§2.1) runs along each side on
+//!   its own and splits it into its straight part and its share of the corner region, and
+//!   the local fit (PCA or the paper's Eq. 2–8 form) of the straight part fixes its slope
+//!   (`propagate_and_fit_sides`).
+//! - A corner-region point stays with its edge: it is scored against its own side's line
+//!   (`assign_runs`) and rectified onto its own side's constrained half-line. The error is a
+//!   sum of Euclidean norms (Eq. 13), minimised exactly by Weiszfeld/Newton; the swarm's
+//!   frame is built from the k directions (10 PSO iterations); the local lines meet at their
+//!   least-squares point (the `Case` implementation `Vertex`).
 //!
 //! Input: the sides, the approximate vertex, [`FitParams`], an RNG. Output: a [`CornerFit`]
 //! whose per-side fields are in the caller's side order.
 
 use rand::Rng;
 
-use super::exact::exact_3d;
+use super::exact::{Exact, exact_3d};
 use super::line::{Line, Line3, LineAcc};
+use super::method::{self, Case, Prepared, chosen, local_fit, order_far_end_first, pose};
 use super::objective::FixedSlopes3;
 use super::params::{FitParams, Searcher};
-use super::problem::{Frame, Problem, grow_and_cap, nearest_on_rays, rms_radius};
-use super::propagate::{line_residuals, noise_from_residuals, propagate_run, side_fit};
-use super::pso::{Search, SwarmScratch, pso};
-use super::scheme1::scheme1;
-use crate::geometry::{cross, dot, finite, norm, norm2, sub};
+use super::problem::{Frame, Problem};
+use super::propagate::propagate_run;
+use super::pso::Search;
+use crate::geometry::{cross, finite, norm, norm2, sub};
 use crate::{Error, Result};
 
 const WHAT: &str = "3D corner fit";
+
+/// The 3D specifics of the shared method (see `method`): k ≥ 2 lines, the objective of
+/// Eq. 13.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Vertex;
 
 /// A point of one side: (side, index within that side's slice), in the caller's numbering.
 pub type SidePoint = (usize, usize);
@@ -71,59 +86,35 @@ impl CornerFit {
 
     /// The corner found by `which`.
     pub fn corner(&self, which: Searcher) -> &Search<3> {
-        match which {
-            Searcher::Pso => &self.pso,
-            Searcher::Scheme1 => &self.scheme1,
-            Searcher::Exact => &self.exact,
-        }
+        chosen(which, &self.scheme1, &self.pso, &self.exact)
     }
 }
 
 /// Work buffers for the 3D corner fit; keep one per thread.
 #[derive(Clone, Debug, Default)]
 pub struct CornerScratch {
-    loc: Vec<[f64; 3]>,
+    /// The shared method's problem and buffers; its points are all sides' points,
+    /// concatenated in the caller's side order.
+    fit: Prepared<3, FixedSlopes3>,
+    /// Where each side starts among the local points (one more entry than sides).
     start: Vec<usize>,
-    canon: Vec<usize>,
-    order: Vec<Vec<usize>>,
-    t: Vec<f64>,
-    res: Vec<f64>,
-    buf: Vec<[f64; 3]>,
-    cand_idx: Vec<usize>,
-    cand: Vec<[f64; 3]>,
-    basis: [[f64; 3]; 3],
-    assigned: Vec<Vec<usize>>,
-    flag: Vec<bool>,
-    tmp: Vec<usize>,
+    /// Per side (caller order): indices into the local points, far end first.
+    runs: Vec<Vec<usize>>,
+    /// Per side: Σ ‖p − approx‖², and the mean distance from the approximate vertex.
     sq: Vec<f64>,
     mean_r: Vec<f64>,
+    /// Per side: its overall direction, pointing away from the vertex (the propagation's
+    /// prior).
     prior: Vec<[f64; 3]>,
+    /// Per side: how many of its points (far end first) the propagation accepted.
     accepted: Vec<usize>,
-    local: Vec<Line3>,
-    obj: FixedSlopes3,
-    swarm: SwarmScratch<3>,
-    frame: Option<Frame<3>>,
-    cand_scale: f64,
-    /// The swarm's starting positions (candidates, plus the lines' meeting point if asked).
-    init: Vec<[f64; 3]>,
-    /// The least-squares meeting point of the local lines (local frame).
-    meeting: Option<[f64; 3]>,
 }
 
 impl CornerScratch {
     /// The search problem prepared by the last successful [`prepare_corner_3d`]. Its lines
     /// (and `assigned`) are in the canonical side order.
     pub fn problem(&self) -> Option<Problem<'_, 3, FixedSlopes3>> {
-        Some(Problem {
-            objective: &self.obj,
-            candidates: &self.cand,
-            basis: self.basis,
-            scale: self.cand_scale,
-            meeting: self.meeting,
-            points: &self.loc,
-            assigned: &self.assigned,
-            frame: self.frame?,
-        })
+        self.fit.problem()
     }
 
     /// Side and index of a point of the concatenated local array.
@@ -143,16 +134,36 @@ pub fn prepare_corner_3d(
     out: &mut CornerFit,
 ) -> Result<()> {
     let s = scratch;
-    s.frame = None;
-    let k = sides.len();
-    if k < 2 {
+    s.fit.frame = None;
+    let min_side = params.min_side_points.max(2);
+    check_sides(sides, &approx, min_side)?;
+    let frame = to_local_frame(s, sides, approx)?;
+
+    order_sides(s, sides.len())?;
+    let runs = s.runs.iter().map(Vec::as_slice);
+    let sigma = method::noise(params, &frame, &s.fit.loc, runs, &mut s.fit.res);
+    propagate_and_fit_sides(s, sigma, params, min_side, &frame, out)?;
+    seed_candidates(s, out);
+    assign_runs(s, params.include_corner_region);
+    pose::<3, Vertex>(&mut s.fit, params, sigma, frame)?;
+
+    out.candidates.clear();
+    out.candidates
+        .extend(s.fit.cand_idx.iter().map(|&g| s.side_point(g)));
+    out.noise = frame.length_to_input(sigma);
+    Ok(())
+}
+
+/// Rejects what cannot be fitted: fewer than two sides, a side with fewer than `min_side`
+/// points, a non-finite point or approximate vertex.
+fn check_sides(sides: &[&[[f64; 3]]], approx: &[f64; 3], min_side: usize) -> Result<()> {
+    if sides.len() < 2 {
         return Err(Error::TooFewPoints {
             what: "3D corner fit: sides (edges meeting at the vertex)",
             needed: 2,
-            got: k,
+            got: sides.len(),
         });
     }
-    let min_side = params.min_side_points.max(2);
     for (j, side) in sides.iter().enumerate() {
         if side.len() < min_side {
             return Err(Error::SideTooSmall {
@@ -174,74 +185,78 @@ pub fn prepare_corner_3d(
             });
         }
     }
-    if !finite(&approx) {
-        return Err(Error::Degenerate {
-            what: WHAT,
-            why: format!("the approximate vertex {approx:?} is not finite"),
-        });
-    }
-    // Canonical side order, from quantities that do not change under rotation, translation or
-    // scaling: point count, then the mean distance from the approximate vertex. Everything
-    // that sums over sides runs in this order, so permuting the sides changes no bit.
+    method::check_approx::<3, Vertex>(approx)
+}
+
+/// The local frame (centred on the approximate vertex, unit = the points' RMS distance from
+/// it, summed in canonical side order), and all sides' points in it.
+fn to_local_frame(
+    s: &mut CornerScratch,
+    sides: &[&[[f64; 3]]],
+    approx: [f64; 3],
+) -> Result<Frame<3>> {
+    canonical_order(s, sides, &approx);
+    let total: usize = sides.iter().map(|s| s.len()).sum();
+    let sum_sq = s.fit.canon.iter().map(|&j| s.sq[j]).sum::<f64>();
+    let frame = method::local_frame::<3, Vertex>(approx, sum_sq, total)?;
+    to_local(s, sides, &frame);
+    Ok(frame)
+}
+
+/// Canonical side order (`s.fit.canon`), from quantities that do not change under rotation,
+/// translation or scaling: point count, then the mean distance from the approximate vertex.
+/// Everything that sums over sides runs in this order, so permuting the sides changes no bit.
+/// Leaves each side's Σ ‖p − approx‖² in `s.sq`.
+fn canonical_order(s: &mut CornerScratch, sides: &[&[[f64; 3]]], approx: &[f64; 3]) {
+    let k = sides.len();
     s.sq.clear();
     s.sq.resize(k, 0.0);
     s.mean_r.clear();
     s.mean_r.resize(k, 0.0);
     for (j, side) in sides.iter().enumerate() {
         for p in side.iter() {
-            let d2 = norm2(&sub(p, &approx));
+            let d2 = norm2(sub(p, approx));
             s.sq[j] += d2;
             s.mean_r[j] += d2.sqrt();
         }
         s.mean_r[j] /= side.len() as f64;
     }
     let mean_r = &s.mean_r;
-    s.canon.clear();
-    s.canon.extend(0..k);
-    s.canon.sort_by(|&a, &b| {
+    let canon = &mut s.fit.canon;
+    canon.clear();
+    canon.extend(0..k);
+    canon.sort_by(|&a, &b| {
         sides[a]
             .len()
             .cmp(&sides[b].len())
             .then(mean_r[a].total_cmp(&mean_r[b]))
             .then(a.cmp(&b))
     });
-    let total: usize = sides.iter().map(|s| s.len()).sum();
-    let rms = (s.canon.iter().map(|&j| s.sq[j]).sum::<f64>() / total as f64).sqrt();
-    if !rms.is_finite() || rms <= 0.0 {
-        return Err(Error::Degenerate {
-            what: WHAT,
-            why: "all points coincide with the approximate vertex".into(),
-        });
-    }
-    let frame = Frame {
-        origin: approx,
-        unit: rms,
-    };
-    s.loc.clear();
+}
+
+/// All sides' points in the local frame, concatenated in the caller's order; `s.start` marks
+/// where each side starts.
+fn to_local(s: &mut CornerScratch, sides: &[&[[f64; 3]]], frame: &Frame<3>) {
+    s.fit.loc.clear();
     s.start.clear();
     for side in sides {
-        s.start.push(s.loc.len());
-        s.loc.extend(side.iter().map(|p| frame.to_local(p)));
+        s.start.push(s.fit.loc.len());
+        s.fit.loc.extend(side.iter().map(|p| frame.to_local(p)));
     }
-    s.start.push(s.loc.len());
-    let loc = &s.loc;
+    s.start.push(s.fit.loc.len());
+}
 
-    // Per side: overall direction (outward), order far end first.
-    s.order.resize_with(k, Vec::new);
-    s.t.clear();
-    s.t.resize(loc.len(), 0.0);
+/// Per side: its overall direction (`s.prior`, pointing away from the vertex) and its points
+/// ordered far end first along it (`s.runs`). Fails on a side whose points all coincide.
+fn order_sides(s: &mut CornerScratch, k: usize) -> Result<()> {
+    let loc = &s.fit.loc;
+    s.runs.resize_with(k, Vec::new);
+    s.fit.t.clear();
+    s.fit.t.resize(loc.len(), 0.0);
     s.prior.clear();
     for j in 0..k {
         let r = s.start[j]..s.start[j + 1];
-        let mut acc = LineAcc::default();
-        let mut centroid = [0.0; 3];
-        for p in &loc[r.clone()] {
-            acc.push(p);
-            for a in 0..3 {
-                centroid[a] += p[a];
-            }
-        }
-        let Some((_, line)) = acc.fit() else {
+        let Some(d) = outward_direction(&loc[r.clone()]) else {
             return Err(Error::Degenerate {
                 what: WHAT,
                 why: format!(
@@ -250,164 +265,108 @@ pub fn prepare_corner_3d(
                 ),
             });
         };
-        let d = line.oriented(&centroid).direction;
         s.prior.push(d);
-        for g in r.clone() {
-            s.t[g] = dot(&loc[g], &d);
-        }
-        let o = &mut s.order[j];
+        let o = &mut s.runs[j];
         o.clear();
-        o.extend(r.clone());
-        let t = &s.t;
-        o.sort_by(|&a, &b| t[b].total_cmp(&t[a]).then(a.cmp(&b)));
+        o.extend(r);
+        order_far_end_first(loc, o, &d, &mut s.fit.t);
     }
+    Ok(())
+}
 
-    let sigma = match params.propagation.noise {
-        Some(sg) => sg / frame.unit,
-        None => {
-            s.res.clear();
-            for j in 0..k {
-                let o = &s.order[j];
-                line_residuals(loc, &o[..o.len().div_ceil(2)], &mut s.res);
-            }
-            noise_from_residuals::<3>(&mut s.res).unwrap_or(0.0)
+/// The direction of the total-least-squares line of one side's points, pointing from the
+/// vertex (the local origin) towards their centroid; `None` when the points coincide.
+fn outward_direction(pts: &[[f64; 3]]) -> Option<[f64; 3]> {
+    let mut acc = LineAcc::default();
+    let mut centroid = [0.0; 3];
+    for p in pts {
+        acc.push(p);
+        for a in 0..3 {
+            centroid[a] += p[a];
         }
-    };
-    let sigma = sigma.max(1e-12);
+    }
+    let (_, line) = acc.fit()?;
+    Some(line.oriented(&centroid).direction)
+}
 
-    // Propagation and local fits.
+/// Per side (caller order): line propagation (§2.1) from the far end, then the local fit of
+/// the accepted points, pointing away from the vertex (from the last accepted point towards
+/// the far end). Fills `s.accepted`, the local lines, `out.lines` and `out.sides`. Fails on a
+/// side that keeps fewer than `min_side` points, before fitting the sides after it.
+fn propagate_and_fit_sides(
+    s: &mut CornerScratch,
+    sigma: f64,
+    params: &FitParams,
+    min_side: usize,
+    frame: &Frame<3>,
+    out: &mut CornerFit,
+) -> Result<()> {
+    let k = s.runs.len();
+    let loc = &s.fit.loc;
     out.sides.resize_with(k, Vec::new);
     out.lines.clear();
-    s.local.clear();
-    out.corner_region.clear();
-    s.cand_idx.clear();
+    s.fit.lines.clear();
     s.accepted.clear();
     s.accepted.resize(k, 0);
-    let accepted = &mut s.accepted;
     for j in 0..k {
-        let o = &s.order[j];
-        accepted[j] = propagate_run(loc, o, sigma, &params.propagation, Some(s.prior[j]));
-        if accepted[j] < min_side {
+        let o = &s.runs[j];
+        let accepted = propagate_run(loc, o, sigma, &params.propagation, Some(s.prior[j]));
+        s.accepted[j] = accepted;
+        if accepted < min_side {
             return Err(Error::SideTooSmall {
                 fit: WHAT,
                 side: j + 1,
                 needed: min_side,
-                got: accepted[j],
+                got: accepted,
                 hint: "the edge turns at once; check that it is straight near the vertex or \
                        lower min_side_points",
             });
         }
-        let l = side_fit(
-            loc,
-            &o[..accepted[j]],
-            params.line_form,
-            params.trim,
-            sigma,
-            &mut s.buf,
-        )?;
-        let outward = sub(&loc[o[0]], &loc[o[accepted[j] - 1]]);
-        let l = l.oriented(&outward);
-        s.local.push(l);
+        let outward = sub(loc[o[0]], loc[o[accepted - 1]]);
+        let l = local_fit(loc, &o[..accepted], params, sigma, &mut s.fit.buf, &outward)?;
+        s.fit.lines.push(l);
         out.lines.push(frame.line_to_input(&l));
         out.sides[j].clear();
-        out.sides[j].extend(o[..accepted[j]].iter().map(|&g| g - s.start[j]));
+        out.sides[j].extend(o[..accepted].iter().map(|&g| g - s.start[j]));
     }
-    let sin_min = params.min_angle_deg.to_radians().sin();
-    let mut widest: f64 = 0.0;
-    for a in 0..k {
-        for b in a + 1..k {
-            widest = widest.max(norm(&cross(&s.local[a].direction, &s.local[b].direction)));
-        }
-    }
-    if widest < sin_min {
-        return Err(Error::Degenerate {
-            what: WHAT,
-            why: "all sides are parallel, so they have no unique common point; these edges \
-                  continue each other rather than meet at a vertex"
-                .into(),
-        });
-    }
-
-    // Corner region and candidates, in canonical side order.
-    for &j in &s.canon {
-        let o = &s.order[j];
-        s.cand_idx.extend_from_slice(&o[accepted[j]..]);
-    }
-    for &j in &s.canon {
-        s.cand_idx.push(s.order[j][accepted[j] - 1]);
-    }
-    for j in 0..k {
-        let o = &s.order[j];
-        out.corner_region
-            .extend(o[accepted[j]..].iter().map(|&g| (j, g - s.start[j])));
-    }
-    grow_and_cap(
-        loc,
-        &mut s.cand_idx,
-        params.min_particles,
-        params.max_particles,
-        &mut s.flag,
-        &mut s.tmp,
-    );
-    s.cand.clear();
-    s.cand.extend(s.cand_idx.iter().map(|&g| loc[g]));
-    s.cand_scale = rms_radius(loc, s.cand_idx.iter().copied()).max(sigma);
-    s.basis = swarm_basis(&s.canon, &s.local);
-
-    // Objective, lines in canonical order: each side's points against its own line.
-    s.assigned.resize_with(k, Vec::new);
-    s.obj.clear();
-    for (slot, &j) in s.canon.iter().enumerate() {
-        let o = &s.order[j];
-        let a = &mut s.assigned[slot];
-        a.clear();
-        let upto = if params.include_corner_region {
-            o.len()
-        } else {
-            accepted[j]
-        };
-        a.extend_from_slice(&o[..upto]);
-        s.obj
-            .add_line(&s.local[j].direction, a.iter().map(|&g| &loc[g]));
-    }
-    out.candidates.clear();
-    out.candidates
-        .extend(s.cand_idx.iter().map(|&g| s.side_point(g)));
-    out.noise = frame.length_to_input(sigma);
-    s.meeting = lines_meeting_point(&s.local);
-    s.frame = Some(frame);
     Ok(())
 }
 
-/// The swarm's orthonormal frame, from the side directions taken in canonical order (so it
-/// turns with the data and does not depend on the caller's side order): the first axis points
-/// from the inside of the corner towards its tip (minus the sum of the outward directions),
-/// the second is the first canonical side's direction made perpendicular to it, the third
-/// completes a right-handed frame.
-fn swarm_basis(canon: &[usize], local: &[Line3]) -> [[f64; 3]; 3] {
-    let mut sum = [0.0; 3];
-    for &j in canon {
-        sum = super::vec::add(&sum, &local[j].direction);
+/// The candidates' seeds, in canonical side order: every side's corner-region points, then
+/// every side's last accepted point. Also the corner region into `out` (caller order).
+fn seed_candidates(s: &mut CornerScratch, out: &mut CornerFit) {
+    let (runs, accepted) = (&s.runs, &s.accepted);
+    let cand = &mut s.fit.cand_idx;
+    cand.clear();
+    for &j in &s.fit.canon {
+        cand.extend_from_slice(&runs[j][accepted[j]..]);
     }
-    let first = local[canon[0]].direction;
-    let e1 = if norm(&sum) > 0.05 * canon.len() as f64 {
-        super::vec::scale(&sum, -1.0 / norm(&sum))
-    } else {
-        // The directions (nearly) cancel, e.g. a flat cross: use the normal of two of them.
-        canon[1..]
-            .iter()
-            .map(|&j| cross(&first, &local[j].direction))
-            .max_by(|a, b| norm(a).total_cmp(&norm(b)))
-            .and_then(|c| super::vec::unit(&c))
-            .unwrap_or([0.0, 0.0, 1.0])
-    };
-    let e2 = canon
-        .iter()
-        .map(|&j| super::vec::reject(&local[j].direction, &e1))
-        .find(|v| norm(v) > 0.1)
-        .and_then(|v| super::vec::unit(&v))
-        .unwrap_or_else(|| super::vec::perp_basis(&e1).0);
-    [e1, e2, cross(&e1, &e2)]
+    for &j in &s.fit.canon {
+        cand.push(runs[j][accepted[j] - 1]);
+    }
+    out.corner_region.clear();
+    for (j, o) in runs.iter().enumerate() {
+        out.corner_region
+            .extend(o[accepted[j]..].iter().map(|&g| (j, g - s.start[j])));
+    }
+}
+
+/// The points each constrained line (canonical order) is scored against: its side's accepted
+/// points and, with `include_corner_region`, the rest of its side too (a corner-region point
+/// stays with its edge).
+fn assign_runs(s: &mut CornerScratch, include_corner_region: bool) {
+    s.fit.assigned.resize_with(s.runs.len(), Vec::new);
+    for (slot, &j) in s.fit.canon.iter().enumerate() {
+        let o = &s.runs[j];
+        let a = &mut s.fit.assigned[slot];
+        a.clear();
+        let upto = if include_corner_region {
+            o.len()
+        } else {
+            s.accepted[j]
+        };
+        a.extend_from_slice(&o[..upto]);
+    }
 }
 
 /// The searches on the problem prepared in `scratch`: Scheme 1, PSO, exact, and the
@@ -419,70 +378,22 @@ pub fn solve_corner_3d<R: Rng + ?Sized>(
     out: &mut CornerFit,
 ) -> Result<()> {
     let s = scratch;
-    let Some(frame) = s.frame else {
-        return Err(Error::Degenerate {
-            what: WHAT,
-            why: "no prepared problem; call prepare_corner_3d first".into(),
-        });
-    };
-    let (ci, s1) = scheme1(&s.obj, &s.cand).ok_or(Error::TooFewPoints {
-        what: "3D corner fit: corner candidates",
-        needed: 1,
-        got: 0,
-    })?;
-    let mut hist = std::mem::take(&mut out.pso_history);
-    let mut init = std::mem::take(&mut s.init);
-    init.clear();
-    init.extend_from_slice(&s.cand);
-    if params.seed_with_intersection
-        && let Some(q) = s.meeting
-    {
-        init.push(q);
-    }
-    let p = pso(
-        &s.obj,
-        &init,
-        &s.basis,
-        s.cand_scale,
-        &params.pso,
-        params.pso.iterations_3d,
-        rng,
-        &mut s.swarm,
-        &mut hist,
+    let found = method::solve::<3, Vertex, R>(&mut s.fit, params, rng, &mut out.pso_history)?;
+    out.scheme1 = found.scheme1;
+    out.scheme1_point = s.side_point(found.scheme1_at);
+    out.pso = found.pso;
+    out.exact = found.exact;
+    // A corner-region point stays with its edge: it goes onto its own side's half-line.
+    let (start, lines) = (&s.start, &s.fit.lines);
+    method::rectify(
+        &found.frame,
+        &s.fit.loc,
+        &found.corner(params.rectify_with).point,
+        out.corner_region
+            .iter()
+            .map(|&(j, i)| (start[j] + i, std::slice::from_ref(&lines[j].direction))),
+        &mut out.rectified,
     );
-    s.init = init;
-    let ex = exact_3d(&s.obj, s.cand_scale, &params.exact)?;
-    let to_input = |r: Search<3>| Search {
-        point: frame.to_input(&r.point),
-        error: frame.length_to_input(r.error),
-        ..r
-    };
-    out.scheme1 = to_input(s1);
-    out.scheme1_point = s.side_point(s.cand_idx[ci]);
-    out.pso = to_input(p);
-    out.exact = to_input(Search {
-        point: ex.point,
-        error: ex.error,
-        evaluations: ex.iterations,
-        converged_at: ex.iterations,
-    });
-    for h in hist.iter_mut() {
-        *h = frame.length_to_input(*h);
-    }
-    out.pso_history = hist;
-    if !(out.pso.error.is_finite() && finite(&out.pso.point)) {
-        return Err(Error::Degenerate {
-            what: WHAT,
-            why: "the swarm left the finite range; the sides are too degenerate to fit".into(),
-        });
-    }
-    let q = frame.to_local(&out.corner(params.rectify_with).point);
-    out.rectified.clear();
-    for &(j, i) in &out.corner_region {
-        let p = s.loc[s.start[j] + i];
-        let (foot, _) = nearest_on_rays(&p, &q, std::slice::from_ref(&s.local[j].direction));
-        out.rectified.push(frame.to_input(&foot));
-    }
     Ok(())
 }
 
@@ -519,4 +430,60 @@ fn lines_meeting_point(lines: &[Line3]) -> Option<[f64; 3]> {
     };
     let q = [solve(0) / det, solve(1) / det, solve(2) / det];
     q.iter().all(|x| x.is_finite()).then_some(q)
+}
+
+impl Case<3> for Vertex {
+    const WHAT: &'static str = WHAT;
+    const APPROX: &'static str = "vertex";
+
+    fn sine(a: &[f64; 3], b: &[f64; 3]) -> f64 {
+        norm(cross(a, b))
+    }
+    const PARALLEL: &'static str = "all sides are parallel, so they have no unique common \
+        point; these edges continue each other rather than meet at a vertex";
+
+    /// The swarm's orthonormal frame, from the side directions taken in canonical order (so it
+    /// turns with the data and does not depend on the caller's side order): the first axis points
+    /// from the inside of the corner towards its tip (minus the sum of the outward directions),
+    /// the second is the first canonical side's direction made perpendicular to it, the third
+    /// completes a right-handed frame.
+    fn swarm_basis(local: &[Line3], canon: &[usize]) -> [[f64; 3]; 3] {
+        let mut sum = [0.0; 3];
+        for &j in canon {
+            sum = crate::geometry::add(sum, local[j].direction);
+        }
+        let first = local[canon[0]].direction;
+        let e1 = if norm(sum) > 0.05 * canon.len() as f64 {
+            crate::geometry::scale(sum, -1.0 / norm(sum))
+        } else {
+            // The directions (nearly) cancel, e.g. a flat cross: use the normal of two of them.
+            canon[1..]
+                .iter()
+                .map(|&j| cross(first, local[j].direction))
+                .max_by(|a, b| norm(a).total_cmp(&norm(b)))
+                .and_then(crate::geometry::unit)
+                .unwrap_or([0.0, 0.0, 1.0])
+        };
+        let e2 = canon
+            .iter()
+            .map(|&j| crate::geometry::reject(local[j].direction, e1))
+            .find(|v| norm(v) > 0.1)
+            .and_then(crate::geometry::unit)
+            .unwrap_or_else(|| crate::geometry::perp_basis(&e1).0);
+        [e1, e2, cross(e1, e2)]
+    }
+
+    fn meeting_point(lines: &[Line3]) -> Option<[f64; 3]> {
+        lines_meeting_point(lines)
+    }
+
+    type Objective = FixedSlopes3;
+    /// Weiszfeld / IRLS with Newton steps (`exact_3d`), tolerances relative to the
+    /// candidates' extent.
+    fn exact(p: &mut Prepared<3, FixedSlopes3>, params: &FitParams) -> Result<Exact<3>> {
+        exact_3d(&p.obj, p.cand_scale, &params.exact)
+    }
+    const CANDIDATES: &'static str = "3D corner fit: corner candidates";
+    const PREPARE: &'static str = "prepare_corner_3d";
+    const DIVERGED: &'static str = "the sides are";
 }

@@ -367,6 +367,7 @@ pub fn exact_3d(obj: &FixedSlopes3, scale: f64, params: &ExactParams) -> Result<
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::fit::objective::FixedSlopes;
     use crate::geometry::unit;
     use rand::rngs::SmallRng;
     use rand::{RngExt, SeedableRng};

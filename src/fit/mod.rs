@@ -64,38 +64,44 @@
 //! rounding; the order of the input points does not matter, and permuting the sides of a 3D
 //! fit changes no bit of the corners. Tested by property tests to 1e-9 relative.
 //!
+//! # One method, two cases
+//! The paper states its fit once, for k lines meeting at a point in D dimensions; so does the
+//! code. `method` (private) holds the steps both fits share, generic over the dimension:
+//! the local frame, sides ordered far end first, the noise, the local fits, the constrained
+//! problem (non-parallel check, candidates, swarm frame, objective, the lines' meeting point),
+//! the three searches and the rectification. [`profile`] (2D) and [`corner`] (3D) hold only
+//! what differs: the 2D fit must first split an unordered profile into two arms (spherical
+//! 2-means, canonical counter-clockwise order) and propagates along the polyline A..corner..B
+//! from both ends; the 3D fit takes the k sides the caller gives, in a canonical order, and
+//! propagates along each. The rest of the difference (objective and its exact minimum, swarm
+//! frame, meeting point, error words) is the small trait `method::Case`, implemented once per
+//! case.
+//!
 //! # The pieces (for tests, the experiment and other callers)
 //! - [`line`]: TLS/PCA fits, the paper's forms (Eq. 2–8) with its rotation, [`LineAcc`].
 //! - [`propagate`]: line propagation ([`propagate_run`], [`propagate_polyline`] for ordered
 //!   polylines in 2D or 3D).
-//! - [`objective`]: [`FixedSlopes2`], [`FixedSlopes3`] (Eq. 11–14, k ≥ 2 lines) and
-//!   [`JointSlopes`] (slopes re-fitted through q).
+//! - [`objective`]: [`FixedSlopes2`], [`FixedSlopes3`] (Eq. 11–14, k ≥ 2 lines; both built
+//!   through [`FixedSlopes`]) and [`JointSlopes`] (slopes re-fitted through q).
 //! - [`pso`], [`ga`], [`scheme1`], [`exact`] (medians / LAD edge descent in 2D,
 //!   Weiszfeld–Newton in 3D), [`refine_joint`]: the searchers; each returns a [`Search`].
 //! - [`prepare_profile_2d`] / [`prepare_corner_3d`] stop at the prepared [`Problem`]
 //!   (`scratch.problem()`), in the fit's local [`Frame`], so each searcher can be run and timed
 //!   on its own; [`solve_profile_2d`] / [`solve_corner_3d`] finish the fit.
 
-// The geometry helpers take arrays by value (`impl Borrow`); these two files, rewritten on
-// another branch as this lands, still pass references. Drop the allows when they stop.
-#[allow(clippy::needless_borrows_for_generic_args)]
 pub mod corner;
 pub mod exact;
 pub mod ga;
 pub mod line;
+mod method;
 pub mod objective;
 pub mod params;
 pub mod problem;
-#[allow(clippy::needless_borrows_for_generic_args)]
 pub mod profile;
 pub mod propagate;
 pub mod pso;
 pub mod refine;
 pub mod scheme1;
-
-// profile.rs and corner.rs (rewritten on another branch as this moves) name a few helpers by
-// the path `super::vec::...`; they are the crate's geometry. Remove once they import it.
-use crate::geometry as vec;
 
 use rand::Rng;
 
@@ -106,7 +112,7 @@ pub use line::{
     Line, Line2, Line3, LineAcc, LineForm, PaperLine3, PaperRotation, fit_line, fit_line_2d_paper,
     fit_line_2d_paper_raw, fit_line_3d_paper, fit_line_3d_paper_raw, fit_line_form,
 };
-pub use objective::{FixedSlopes2, FixedSlopes3, JointSlopes, Objective, fitness};
+pub use objective::{FixedSlopes, FixedSlopes2, FixedSlopes3, JointSlopes, Objective, fitness};
 pub use params::{FitParams, Searcher};
 pub use problem::{Frame, Problem};
 pub use profile::{ProfileFit, ProfileKnown, ProfileScratch, prepare_profile_2d, solve_profile_2d};

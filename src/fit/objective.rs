@@ -20,6 +20,22 @@ pub trait Objective<const D: usize> {
     fn error(&self, q: &[f64; D]) -> f64;
 }
 
+/// The fixed-slope objectives of both dimensions ([`FixedSlopes2`], Eq. 11, and
+/// [`FixedSlopes3`], Eq. 13), set up one line at a time: what the fit shared by the 2D and 3D
+/// cases needs to build its problem.
+pub trait FixedSlopes<const D: usize>: Objective<D> {
+    /// Empties the objective, keeping its buffers.
+    fn clear(&mut self);
+
+    /// Adds a line with unit `direction` and the points that belong to it. Returns `false`
+    /// (and adds nothing) when the direction is not a finite non-zero vector.
+    fn add_line<'a>(
+        &mut self,
+        direction: &[f64; D],
+        points: impl IntoIterator<Item = &'a [f64; D]>,
+    ) -> bool;
+}
+
 /// Fitness as the paper defines it (Eq. 12, 14): the reciprocal of the error.
 pub fn fitness(error: f64) -> f64 {
     1.0 / error
@@ -83,9 +99,8 @@ pub struct FixedSlopes2 {
     pub(crate) mid: Vec<f64>,
 }
 
-impl FixedSlopes2 {
-    /// Empties the objective, keeping its buffers.
-    pub fn clear(&mut self) {
+impl FixedSlopes<2> for FixedSlopes2 {
+    fn clear(&mut self) {
         self.normals.clear();
         self.starts.clear();
         self.a.clear();
@@ -93,9 +108,7 @@ impl FixedSlopes2 {
         self.mid.clear();
     }
 
-    /// Adds a line with unit `direction` and the points that belong to it. Returns `false`
-    /// (and adds nothing) when the direction is not a finite non-zero vector.
-    pub fn add_line<'a>(
+    fn add_line<'a>(
         &mut self,
         direction: &[f64; 2],
         points: impl IntoIterator<Item = &'a [f64; 2]>,
@@ -126,7 +139,9 @@ impl FixedSlopes2 {
         self.starts.push(self.a.len());
         true
     }
+}
 
+impl FixedSlopes2 {
     /// Number of lines.
     pub fn lines(&self) -> usize {
         self.normals.len()
@@ -184,9 +199,8 @@ pub struct FixedSlopes3 {
     pub(crate) ay: Vec<f64>,
 }
 
-impl FixedSlopes3 {
-    /// Empties the objective, keeping its buffers.
-    pub fn clear(&mut self) {
+impl FixedSlopes<3> for FixedSlopes3 {
+    fn clear(&mut self) {
         self.dirs.clear();
         self.bases.clear();
         self.starts.clear();
@@ -194,9 +208,7 @@ impl FixedSlopes3 {
         self.ay.clear();
     }
 
-    /// Adds a line with unit `direction` and its points; `false` for a zero/non-finite
-    /// direction.
-    pub fn add_line<'a>(
+    fn add_line<'a>(
         &mut self,
         direction: &[f64; 3],
         points: impl IntoIterator<Item = &'a [f64; 3]>,
@@ -217,7 +229,9 @@ impl FixedSlopes3 {
         self.starts.push(self.ax.len());
         true
     }
+}
 
+impl FixedSlopes3 {
     /// Number of lines.
     pub fn lines(&self) -> usize {
         self.dirs.len()

@@ -3,36 +3,49 @@
 //! traces meeting at a corner, a rounded or noisy abnormal zone there, noise and maybe a few
 //! outliers.
 //!
-//! Steps, all in a local frame centred on the approximate corner (see `problem`):
-//! 1. Split into two arms: the directions of the far half of the points (seen from the
-//!    approximate corner) are clustered into two (spherical 2-means), a line is fitted to each
-//!    cluster, and every point goes to the nearer line. Arms are ordered so that arm 1 turns
-//!    counter-clockwise into arm 2, which does not depend on the input order.
-//! 2. Order each arm by its position along the arm and read the profile as one polyline from
-//!    the far end A of arm 1 through the corner to the far end B of arm 2; propagate (§2.1)
-//!    from A and from B. The accepted points are the sides (A..C, D..B), the points between C
-//!    and D the corner region (if the two runs crossed, the points both accepted).
-//! 3. Fit L2 and L4 to the sides; build the constrained objective (§2) with every point scored
-//!    against its side's line (corner-region points against the nearer one); search the corner
-//!    with Scheme 1, PSO (in a frame whose first axis runs along the bisector towards the tip)
-//!    and exactly; rectify the corner-region points onto the constrained half-lines.
+//! The fit is the method of `method` (stated once for k lines in D dimensions: local frame,
+//! sides ordered far end first, noise, propagation, local fits, the constrained problem, the
+//! searches, rectification) with the 2D specifics here, all in the local frame centred on the
+//! approximate corner:
+//! 1. Split into two arms (`split_into_arms`): the directions of the far half of the points
+//!    (seen from the approximate corner) are clustered into two (spherical 2-means), a line is
+//!    fitted to each cluster, and every point goes to the nearer line. Arms are ordered so
+//!    that arm 1 turns counter-clockwise into arm 2, which does not depend on the input order.
+//! 2. Read the profile as one polyline from the far end A of arm 1 through the corner to the
+//!    far end B of arm 2, and propagate (§2.1) from A and from B
+//!    (`propagate_from_both_ends`). The accepted points are the sides (A..C, D..B), the
+//!    points between C and D the corner region (if the two runs crossed, the points both
+//!    accepted); a known abnormal zone pulls the sides back (`pull_back_from_zone`).
+//! 3. Local fits L2, L4, or the faces' known directions through the sides' centroids
+//!    (`fit_local_lines`). A corner-region point belongs to neither side: it is scored
+//!    against the nearer local line (`assign_points`) and rectified onto the nearer
+//!    constrained half-line. The swarm's frame has its first axis along the bisector towards
+//!    the tip, the local lines meet at their intersection, and the exact minimum of the error
+//!    (a sum of absolute values) is a pair of medians (the `Case` implementation
+//!    `Profile`).
 //!
 //! Input: points, approximate corner, [`FitParams`], an RNG. Output: a [`ProfileFit`].
 
 use rand::Rng;
 
-use super::exact::exact_2d;
+use super::exact::{Exact, exact_2d};
 use super::line::{Line, Line2};
+use super::method::{
+    self, Case, Prepared, check_not_parallel, chosen, local_fit, order_far_end_first, pose,
+};
 use super::objective::FixedSlopes2;
 use super::params::{FitParams, Searcher};
-use super::problem::{Frame, Problem, grow_and_cap, nearest_on_rays, rms_radius};
-use super::propagate::{line_residuals, noise_from_residuals, propagate_run, side_fit};
-use super::pso::{Search, SwarmScratch, pso};
-use super::scheme1::scheme1;
+use super::problem::{Frame, Problem};
+use super::propagate::propagate_run;
+use super::pso::Search;
 use crate::geometry::{dot, finite, norm2, scale, sub, unit};
 use crate::{Error, Result};
 
 const WHAT: &str = "2D profile fit";
+
+/// The 2D specifics of the shared method (see `method`): two lines, the objective of Eq. 11.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Profile;
 
 /// Result of [`super::fit_profile_2d`], in input coordinates. Reuse one across calls with
 /// [`super::fit_profile_2d_with`] to avoid allocating.
@@ -80,62 +93,51 @@ impl ProfileFit {
 
     /// The corner found by `which`.
     pub fn corner(&self, which: Searcher) -> &Search<2> {
-        match which {
-            Searcher::Pso => &self.pso,
-            Searcher::Scheme1 => &self.scheme1,
-            Searcher::Exact => &self.exact,
-        }
+        chosen(which, &self.scheme1, &self.pso, &self.exact)
     }
+}
+
+/// What the caller already knows about a profile, from the other slabs of the same edge.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ProfileKnown {
+    /// The abnormal zone: points closer than this (input units) to the approximate corner
+    /// are never side points, whatever the propagation says. The 3D pipeline measures it once
+    /// per edge from the residuals of all its slabs, which sees where a tangent-continuous
+    /// fillet leaves the faces far better than one slab can. 0 = unknown.
+    pub zone: f64,
+    /// The directions of the two faces (unit, in the profile's plane, either orientation):
+    /// the slopes of the constrained lines. The paper takes them from the two local fits of
+    /// the profile; along a straight edge every slab sees the same faces, and their mean
+    /// over all slabs is far steadier than one slab's fit (measured on a 30,000-point box:
+    /// per-slab corners scatter 0.11 spacings with their own slopes). Each side's local line
+    /// then keeps this direction through the centroid of its points (the total least squares
+    /// line of given direction).
+    pub slopes: Option<[[f64; 2]; 2]>,
 }
 
 /// Work buffers for the 2D profile fit; keep one per thread.
 #[derive(Clone, Debug, Default)]
 pub struct ProfileScratch {
-    /// The swarm's starting positions (candidates, plus the lines' meeting point if asked).
-    init: Vec<[f64; 2]>,
-    loc: Vec<[f64; 2]>,
+    /// The shared method's problem and buffers.
+    fit: Prepared<2, FixedSlopes2>,
+    /// Squared distances of the local points from the approximate corner.
     r2: Vec<f64>,
+    /// The far half of the points (sorted indices), which the arms are clustered from.
     far: Vec<usize>,
+    /// Each far point's cluster (2 = not a far point).
     label: Vec<u8>,
+    /// The two arms, far end first.
     arm: [Vec<usize>; 2],
+    /// The profile as one polyline A..corner..B, and the same read from B.
     poly: Vec<usize>,
     rev: Vec<usize>,
-    t: Vec<f64>,
-    res: Vec<f64>,
-    buf: Vec<[f64; 2]>,
-    cand_idx: Vec<usize>,
-    cand: Vec<[f64; 2]>,
-    basis: [[f64; 2]; 2],
-    assigned: Vec<Vec<usize>>,
-    flag: Vec<bool>,
-    order: Vec<usize>,
-    med: Vec<f64>,
-    obj: FixedSlopes2,
-    swarm: SwarmScratch<2>,
-    frame: Option<Frame<2>>,
-    cand_scale: f64,
-    /// The local fits' intersection (local frame), if they meet.
-    meeting: Option<[f64; 2]>,
 }
 
 impl ProfileScratch {
     /// The search problem prepared by the last successful [`prepare_profile_2d`].
     pub fn problem(&self) -> Option<Problem<'_, 2, FixedSlopes2>> {
-        Some(Problem {
-            objective: &self.obj,
-            candidates: &self.cand,
-            basis: self.basis,
-            scale: self.cand_scale,
-            meeting: self.meeting,
-            points: &self.loc,
-            assigned: &self.assigned,
-            frame: self.frame?,
-        })
+        self.fit.problem()
     }
-}
-
-fn cross2(a: &[f64; 2], b: &[f64; 2]) -> f64 {
-    a[0] * b[1] - a[1] * b[0]
 }
 
 /// Steps 1–3 up to the prepared search problem (left in `scratch`): arms, propagation, local
@@ -158,24 +160,6 @@ pub fn prepare_profile_2d(
     )
 }
 
-/// What the caller already knows about a profile, from the other slabs of the same edge.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct ProfileKnown {
-    /// The abnormal zone: points closer than this (input units) to the approximate corner
-    /// are never side points, whatever the propagation says. The 3D pipeline measures it once
-    /// per edge from the residuals of all its slabs, which sees where a tangent-continuous
-    /// fillet leaves the faces far better than one slab can. 0 = unknown.
-    pub zone: f64,
-    /// The directions of the two faces (unit, in the profile's plane, either orientation):
-    /// the slopes of the constrained lines. The paper takes them from the two local fits of
-    /// the profile; along a straight edge every slab sees the same faces, and their mean
-    /// over all slabs is far steadier than one slab's fit (measured on a 30,000-point box:
-    /// per-slab corners scatter 0.11 spacings with their own slopes). Each side's local line
-    /// then keeps this direction through the centroid of its points (the total least squares
-    /// line of given direction).
-    pub slopes: Option<[[f64; 2]; 2]>,
-}
-
 /// [`prepare_profile_2d`] with what is known from the rest of the edge (see
 /// [`ProfileKnown`]).
 pub fn prepare_profile_2d_zone(
@@ -187,10 +171,43 @@ pub fn prepare_profile_2d_zone(
     out: &mut ProfileFit,
 ) -> Result<()> {
     let s = scratch;
-    s.frame = None;
-    let zone = known.zone;
-    let n = points.len();
+    s.fit.frame = None;
     let min_side = params.min_side_points.max(2);
+    check_profile(points, &approx_corner, min_side)?;
+    let frame = to_local_frame(s, points, approx_corner)?;
+
+    let arm_line = split_into_arms(s, params)?;
+    // Noise: far halves of the arms against their own lines.
+    let arms = s.arm.iter().map(Vec::as_slice);
+    let sigma = method::noise(params, &frame, &s.fit.loc, arms, &mut s.fit.res);
+    let ends = propagate_from_both_ends(s, sigma, params, &arm_line);
+    let (s1_end, s2_start) = pull_back_from_zone(&s.fit.loc, &s.poly, known.zone, &frame, ends);
+    check_side_sizes([s1_end, s.poly.len() - s2_start], min_side)?;
+    record_sides(s, s1_end, s2_start, out);
+
+    fit_local_lines(s, &arm_line, known, params, sigma, &out.sides)?;
+    assign_points(&mut s.fit, out, params.include_corner_region);
+    // The candidates' seeds: the corner region, C and D.
+    s.fit.cand_idx.clear();
+    s.fit.cand_idx.extend_from_slice(&out.corner_region);
+    s.fit.cand_idx.push(out.c);
+    s.fit.cand_idx.push(out.d);
+    pose::<2, Profile>(&mut s.fit, params, sigma, frame)?;
+
+    out.local = [
+        frame.line_to_input(&s.fit.lines[0]),
+        frame.line_to_input(&s.fit.lines[1]),
+    ];
+    out.noise = frame.length_to_input(sigma);
+    out.candidates.clear();
+    out.candidates.extend_from_slice(&s.fit.cand_idx);
+    Ok(())
+}
+
+/// Rejects what cannot be fitted: fewer points than two sides need, a non-finite approximate
+/// corner or point.
+fn check_profile(points: &[[f64; 2]], approx_corner: &[f64; 2], min_side: usize) -> Result<()> {
+    let n = points.len();
     if n < 2 * min_side {
         return Err(Error::TooFewPoints {
             what: WHAT,
@@ -198,12 +215,7 @@ pub fn prepare_profile_2d_zone(
             got: n,
         });
     }
-    if !finite(&approx_corner) {
-        return Err(Error::Degenerate {
-            what: WHAT,
-            why: format!("the approximate corner {approx_corner:?} is not finite"),
-        });
-    }
+    method::check_approx::<2, Profile>(approx_corner)?;
     if let Some(i) = points.iter().position(|p| !finite(p)) {
         return Err(Error::Degenerate {
             what: WHAT,
@@ -213,48 +225,79 @@ pub fn prepare_profile_2d_zone(
             ),
         });
     }
-    // Local frame: centred on the approximate corner, unit = RMS radius around it.
-    let rms = (points
-        .iter()
-        .map(|p| norm2(&sub(p, &approx_corner)))
-        .sum::<f64>()
-        / n as f64)
-        .sqrt();
-    if !rms.is_finite() || rms <= 0.0 {
-        return Err(Error::Degenerate {
-            what: WHAT,
-            why: "all points coincide with the approximate corner".into(),
-        });
-    }
-    let frame = Frame {
-        origin: approx_corner,
-        unit: rms,
-    };
-    s.loc.clear();
-    s.loc.extend(points.iter().map(|p| frame.to_local(p)));
-    let loc = &s.loc;
+    Ok(())
+}
 
-    // 1. Arms. Far half by distance from the approximate corner.
+/// The local frame (centred on the approximate corner, unit = the points' RMS distance from
+/// it), and the points in it (`s.fit.loc`).
+fn to_local_frame(
+    s: &mut ProfileScratch,
+    points: &[[f64; 2]],
+    approx_corner: [f64; 2],
+) -> Result<Frame<2>> {
+    let sum_sq = points
+        .iter()
+        .map(|p| norm2(sub(p, approx_corner)))
+        .sum::<f64>();
+    let frame = method::local_frame::<2, Profile>(approx_corner, sum_sq, points.len())?;
+    s.fit.loc.clear();
+    s.fit.loc.extend(points.iter().map(|p| frame.to_local(p)));
+    Ok(frame)
+}
+
+/// Step 1: the two arms. Returns a line through each arm's cluster of far points (direction
+/// pointing away from the corner), arm 0 turning counter-clockwise into arm 1; leaves every
+/// point on the nearer arm in `s.arm`, each arm ordered far end first. Fails on a single arm
+/// or parallel arms.
+fn split_into_arms(s: &mut ProfileScratch, params: &FitParams) -> Result<[Line2; 2]> {
+    far_half(s)?;
+    let means = cluster_directions(&s.fit.loc, &s.r2, &s.far, &mut s.label);
+    let mut arm_line = arm_lines(&s.fit.loc, &s.far, &s.label, &means, &mut s.fit.buf)?;
+    check_not_parallel::<2, Profile>(&arm_line, params)?;
+    // Canonical arm order: arm 0 turns counter-clockwise into arm 1.
+    if cross2(&arm_line[0].direction, &arm_line[1].direction) < 0.0 {
+        arm_line.swap(0, 1);
+    }
+    assign_to_arms(s, &arm_line);
+    Ok(arm_line)
+}
+
+/// The far half of the points by distance from the approximate corner, without points at
+/// the corner itself: `s.far` (sorted indices), with `s.r2` the squared distances.
+fn far_half(s: &mut ProfileScratch) -> Result<()> {
+    let loc = &s.fit.loc;
+    let n = loc.len();
     s.r2.clear();
     s.r2.extend(loc.iter().map(norm2));
-    s.order.clear();
-    s.order.extend(0..n);
+    let order = &mut s.fit.order;
+    order.clear();
+    order.extend(0..n);
     let r2 = &s.r2;
     let mid = n / 2;
-    s.order
-        .select_nth_unstable_by(mid, |&a, &b| r2[a].total_cmp(&r2[b]).then(a.cmp(&b)));
+    order.select_nth_unstable_by(mid, |&a, &b| r2[a].total_cmp(&r2[b]).then(a.cmp(&b)));
     s.far.clear();
-    s.far.extend_from_slice(&s.order[mid..]);
+    s.far.extend_from_slice(&order[mid..]);
     s.far.retain(|&i| r2[i] > 0.0);
     s.far.sort_unstable();
-    let far = &s.far;
-    if far.len() < 2 {
+    if s.far.len() < 2 {
         return Err(Error::Degenerate {
             what: WHAT,
             why: "fewer than two points away from the approximate corner".into(),
         });
     }
-    let dir_of = |i: usize| scale(&loc[i], 1.0 / r2[i].sqrt());
+    Ok(())
+}
+
+/// Spherical 2-means of the directions of the `far` points seen from the approximate corner,
+/// seeded with the farthest point's direction and the direction most opposite to it. Returns
+/// the two mean directions; `label` receives each far point's cluster.
+fn cluster_directions(
+    loc: &[[f64; 2]],
+    r2: &[f64],
+    far: &[usize],
+    label: &mut Vec<u8>,
+) -> [[f64; 2]; 2] {
+    let dir_of = |i: usize| scale(loc[i], 1.0 / r2[i].sqrt());
     let seed1 = far
         .iter()
         .copied()
@@ -265,23 +308,23 @@ pub fn prepare_profile_2d_zone(
         .iter()
         .copied()
         .min_by(|&a, &b| {
-            dot(&dir_of(a), &seed1)
-                .total_cmp(&dot(&dir_of(b), &seed1))
+            dot(dir_of(a), seed1)
+                .total_cmp(&dot(dir_of(b), seed1))
                 .then(a.cmp(&b))
         })
         .map(dir_of)
         .unwrap_or([-1.0, 0.0]);
     let mut means = [seed1, seed2];
-    s.label.clear();
-    s.label.resize(n, 2);
+    label.clear();
+    label.resize(loc.len(), 2);
     for _ in 0..32 {
         let mut changed = false;
         let mut sums = [[0.0; 2]; 2];
         for &i in far {
             let u = dir_of(i);
-            let l = u8::from(dot(&u, &means[1]) > dot(&u, &means[0]));
-            if s.label[i] != l {
-                s.label[i] = l;
+            let l = u8::from(dot(u, means[1]) > dot(u, means[0]));
+            if label[i] != l {
+                label[i] = l;
                 changed = true;
             }
             let sm = &mut sums[l as usize];
@@ -289,7 +332,7 @@ pub fn prepare_profile_2d_zone(
             sm[1] += u[1];
         }
         for k in 0..2 {
-            if let Some(m) = unit(&sums[k]) {
+            if let Some(m) = unit(sums[k]) {
                 means[k] = m;
             }
         }
@@ -297,19 +340,27 @@ pub fn prepare_profile_2d_zone(
             break;
         }
     }
-    // Lines through each cluster of far points.
-    let mut arm_line = [Line {
-        point: [0.0; 2],
-        direction: [1.0, 0.0],
-    }; 2];
+    means
+}
+
+/// A line through each cluster of far points, pointing along the cluster's mean direction.
+/// Fails when a cluster has fewer than two points: the profile is a single arm.
+fn arm_lines(
+    loc: &[[f64; 2]],
+    far: &[usize],
+    label: &[u8],
+    means: &[[f64; 2]; 2],
+    buf: &mut Vec<[f64; 2]>,
+) -> Result<[Line2; 2]> {
+    let mut arm_line = [Line2::default(); 2];
     for k in 0..2 {
-        s.buf.clear();
-        s.buf.extend(
+        buf.clear();
+        buf.extend(
             far.iter()
-                .filter(|&&i| s.label[i] == k as u8)
+                .filter(|&&i| label[i] == k as u8)
                 .map(|&i| loc[i]),
         );
-        if s.buf.len() < 2 {
+        if buf.len() < 2 {
             return Err(Error::Degenerate {
                 what: WHAT,
                 why: "the points form a single arm, not two sides meeting at a corner; \
@@ -317,17 +368,14 @@ pub fn prepare_profile_2d_zone(
                     .into(),
             });
         }
-        arm_line[k] = super::line::fit_line(&s.buf)?.oriented(&means[k]);
+        arm_line[k] = super::line::fit_line(buf)?.oriented(&means[k]);
     }
-    let sin_min = params.min_angle_deg.to_radians().sin();
-    if cross2(&arm_line[0].direction, &arm_line[1].direction).abs() < sin_min {
-        return Err(parallel_sides());
-    }
-    // Canonical arm order: arm 0 turns counter-clockwise into arm 1.
-    if cross2(&arm_line[0].direction, &arm_line[1].direction) < 0.0 {
-        arm_line.swap(0, 1);
-    }
-    // Every point to the nearer arm line; order each arm far end first.
+    Ok(arm_line)
+}
+
+/// Every point to the nearer arm line (`s.arm`), each arm ordered far end first.
+fn assign_to_arms(s: &mut ProfileScratch, arm_line: &[Line2; 2]) {
+    let loc = &s.fit.loc;
     for a in s.arm.iter_mut() {
         a.clear();
     }
@@ -335,37 +383,27 @@ pub fn prepare_profile_2d_zone(
         let k = usize::from(arm_line[1].distance(p) < arm_line[0].distance(p));
         s.arm[k].push(i);
     }
-    s.t.clear();
-    s.t.resize(n, 0.0);
-    for (arm, line) in s.arm.iter_mut().zip(&arm_line) {
-        for &i in arm.iter() {
-            s.t[i] = dot(&loc[i], &line.direction);
-        }
-        let t = &s.t;
-        arm.sort_by(|&a, &b| t[b].total_cmp(&t[a]).then(a.cmp(&b)));
+    s.fit.t.clear();
+    s.fit.t.resize(loc.len(), 0.0);
+    for (arm, line) in s.arm.iter_mut().zip(arm_line) {
+        order_far_end_first(loc, arm, &line.direction, &mut s.fit.t);
     }
+}
 
-    // Noise: far halves of the arms against their own lines.
-    let sigma = match params.propagation.noise {
-        Some(sg) => sg / frame.unit,
-        None => {
-            s.res.clear();
-            for k in 0..2 {
-                let a = &s.arm[k];
-                line_residuals(loc, &a[..a.len().div_ceil(2)], &mut s.res);
-            }
-            noise_from_residuals::<2>(&mut s.res).unwrap_or(0.0)
-        }
-    };
-    let sigma = sigma.max(1e-12);
-
-    // 2. Propagation (§2.1) along the profile read as one polyline, A = far end of arm 1 ...
-    // corner ... B = far end of arm 2, from both ends (the paper's Figure 3). Each run goes
-    // towards the corner and, until it sees the turn, past it; where the two runs overlap, the
-    // points both accepted surround the corner and go to the corner region, so the side fits
-    // only use points that clearly belong to one side. A run that never sees the turn (an
-    // obtuse corner in strong noise) is stopped halfway down the other arm, so it cannot
-    // swallow the other side.
+/// Step 2: propagation (§2.1) along the profile read as one polyline, A = far end of arm 1 ...
+/// corner ... B = far end of arm 2, from both ends (the paper's Figure 3). Each run goes
+/// towards the corner and, until it sees the turn, past it; where the two runs overlap, the
+/// points both accepted surround the corner and go to the corner region, so the side fits
+/// only use points that clearly belong to one side. A run that never sees the turn (an
+/// obtuse corner in strong noise) is stopped halfway down the other arm, so it cannot
+/// swallow the other side. Returns where side 1 ends and side 2 starts in `s.poly`.
+fn propagate_from_both_ends(
+    s: &mut ProfileScratch,
+    sigma: f64,
+    params: &FitParams,
+    arm_line: &[Line2; 2],
+) -> (usize, usize) {
+    let loc = &s.fit.loc;
     let j = s.arm[0].len();
     s.poly.clear();
     s.poly.extend_from_slice(&s.arm[0]);
@@ -390,19 +428,34 @@ pub fn prepare_profile_2d_zone(
     )
     .min(m - j + j / 2);
     // Side 1 = poly[..s1_end], side 2 = poly[s2_start..].
-    let (mut s1_end, mut s2_start) = (a.min(m - b), a.max(m - b));
+    (a.min(m - b), a.max(m - b))
+}
+
+/// With a known abnormal zone (`zone` > 0, input units): pulls each side back to its last
+/// point outside the zone (far end first, so the side is a prefix of the polyline read from
+/// its end).
+fn pull_back_from_zone(
+    loc: &[[f64; 2]],
+    poly: &[usize],
+    zone: f64,
+    frame: &Frame<2>,
+    (mut s1_end, mut s2_start): (usize, usize),
+) -> (usize, usize) {
     if zone > 0.0 {
-        // Pull each side back to its last point outside the zone (far end first, so the side
-        // is a prefix of the polyline read from its end).
         let z2 = (zone / frame.unit).powi(2);
-        while s1_end > 0 && norm2(&loc[s.poly[s1_end - 1]]) < z2 {
+        while s1_end > 0 && norm2(loc[poly[s1_end - 1]]) < z2 {
             s1_end -= 1;
         }
-        while s2_start < m && norm2(&loc[s.poly[s2_start]]) < z2 {
+        while s2_start < poly.len() && norm2(loc[poly[s2_start]]) < z2 {
             s2_start += 1;
         }
     }
-    for (k, got) in [(0, s1_end), (1, m - s2_start)] {
+    (s1_end, s2_start)
+}
+
+/// Fails when a side kept fewer than `min_side` points.
+fn check_side_sizes(sizes: [usize; 2], min_side: usize) -> Result<()> {
+    for (k, got) in sizes.into_iter().enumerate() {
         if got < min_side {
             return Err(Error::SideTooSmall {
                 fit: WHAT,
@@ -414,6 +467,12 @@ pub fn prepare_profile_2d_zone(
             });
         }
     }
+    Ok(())
+}
+
+/// The sides (far end first), C, D and the corner region into `out`.
+fn record_sides(s: &ProfileScratch, s1_end: usize, s2_start: usize, out: &mut ProfileFit) {
+    let m = s.poly.len();
     out.sides[0].clear();
     out.sides[0].extend_from_slice(&s.poly[..s1_end]);
     out.sides[1].clear();
@@ -423,102 +482,64 @@ pub fn prepare_profile_2d_zone(
     out.corner_region.clear();
     out.corner_region
         .extend_from_slice(&s.poly[s1_end..s2_start]);
+}
 
-    // 3. Local fits L2, L4 (outward).
-    let mut local = [arm_line[0]; 2];
+/// Step 3: the local lines L2, L4 (`s.fit.lines`), pointing away from the corner along their
+/// arms: the given face nearer to each arm through the centroid of its side when the faces
+/// are known, the shared local fit of the side otherwise.
+fn fit_local_lines(
+    s: &mut ProfileScratch,
+    arm_line: &[Line2; 2],
+    known: &ProfileKnown,
+    params: &FitParams,
+    sigma: f64,
+    sides: &[Vec<usize>; 2],
+) -> Result<()> {
+    s.fit.lines.clear();
     for k in 0..2 {
-        local[k] = match known.slopes {
-            // The given face nearer to this arm, through the centroid of the side.
+        let away = &arm_line[k].direction;
+        let line = match known.slopes {
             Some(slopes) => {
-                let d = slopes
-                    .iter()
-                    .copied()
-                    .max_by(|a, b| {
-                        dot(a, &arm_line[k].direction)
-                            .abs()
-                            .total_cmp(&dot(b, &arm_line[k].direction).abs())
-                    })
-                    .and_then(|d| unit(&d))
-                    .ok_or_else(|| Error::Degenerate {
-                        what: WHAT,
-                        why: "a given face direction is zero or not finite".into(),
-                    })?;
-                line_through_centroid(loc, &out.sides[k], d)
+                let d = nearest_face(&slopes, away)?;
+                line_through_centroid(&s.fit.loc, &sides[k], d).oriented(away)
             }
-            None => side_fit(
-                loc,
-                &out.sides[k],
-                params.line_form,
-                params.trim,
-                sigma,
-                &mut s.buf,
-            )?,
-        }
-        .oriented(&arm_line[k].direction);
+            None => local_fit(&s.fit.loc, &sides[k], params, sigma, &mut s.fit.buf, away)?,
+        };
+        s.fit.lines.push(line);
     }
-    if cross2(&local[0].direction, &local[1].direction).abs() < sin_min {
-        return Err(parallel_sides());
-    }
-
-    // Candidates: the corner region, C and D, grown / capped.
-    s.cand_idx.clear();
-    s.cand_idx.extend_from_slice(&out.corner_region);
-    s.cand_idx.push(out.c);
-    s.cand_idx.push(out.d);
-    grow_and_cap(
-        loc,
-        &mut s.cand_idx,
-        params.min_particles,
-        params.max_particles,
-        &mut s.flag,
-        &mut s.order,
-    );
-    s.cand.clear();
-    s.cand.extend(s.cand_idx.iter().map(|&i| loc[i]));
-    s.cand_scale = rms_radius(loc, s.cand_idx.iter().copied()).max(sigma);
-    // The swarm's frame: first axis along the bisector towards the tip (the abnormal zone lies
-    // inside the angle, the corner at its tip), second axis 90° counter-clockwise from it.
-    let tip = unit(&scale(
-        &[
-            local[0].direction[0] + local[1].direction[0],
-            local[0].direction[1] + local[1].direction[1],
-        ],
-        -1.0,
-    ))
-    .unwrap_or([-local[0].direction[1], local[0].direction[0]]);
-    s.basis = [tip, [-tip[1], tip[0]]];
-
-    // Objective: side points to their own line, corner-region points to the nearer local line.
-    s.assigned.resize_with(2, Vec::new);
-    for k in 0..2 {
-        s.assigned[k].clear();
-        s.assigned[k].extend_from_slice(&out.sides[k]);
-    }
-    if params.include_corner_region {
-        for &i in &out.corner_region {
-            let k = usize::from(local[1].distance(&loc[i]) < local[0].distance(&loc[i]));
-            s.assigned[k].push(i);
-        }
-    }
-    s.obj.clear();
-    for (line, assigned) in local.iter().zip(&s.assigned) {
-        s.obj
-            .add_line(&line.direction, assigned.iter().map(|&i| &loc[i]));
-    }
-
-    // On a narrow V the error is nearly flat along the bisector: a swarm started only on
-    // corner-region points (inside the V) stops inside it. The local fits' intersection
-    // centres it on the optimum region (`seed_with_intersection`).
-    s.meeting = intersection(&local[0], &local[1]);
-    out.local = [
-        frame.line_to_input(&local[0]),
-        frame.line_to_input(&local[1]),
-    ];
-    out.noise = frame.length_to_input(sigma);
-    out.candidates.clear();
-    out.candidates.extend_from_slice(&s.cand_idx);
-    s.frame = Some(frame);
     Ok(())
+}
+
+/// Of the given face directions, the one most nearly along `arm` (unit).
+fn nearest_face(slopes: &[[f64; 2]; 2], arm: &[f64; 2]) -> Result<[f64; 2]> {
+    slopes
+        .iter()
+        .copied()
+        .max_by(|a, b| dot(a, arm).abs().total_cmp(&dot(b, arm).abs()))
+        .and_then(unit)
+        .ok_or_else(|| Error::Degenerate {
+            what: WHAT,
+            why: "a given face direction is zero or not finite".into(),
+        })
+}
+
+/// The points each constrained line is scored against: its side's points and, with
+/// `include_corner_region`, the corner-region points nearer to its local line.
+fn assign_points(p: &mut Prepared<2, FixedSlopes2>, out: &ProfileFit, include_corner_region: bool) {
+    p.canon.clear();
+    p.canon.extend([0, 1]);
+    p.assigned.resize_with(2, Vec::new);
+    for k in 0..2 {
+        p.assigned[k].clear();
+        p.assigned[k].extend_from_slice(&out.sides[k]);
+    }
+    if include_corner_region {
+        let local = &p.lines;
+        for &i in &out.corner_region {
+            let k = usize::from(local[1].distance(&p.loc[i]) < local[0].distance(&p.loc[i]));
+            p.assigned[k].push(i);
+        }
+    }
 }
 
 /// The line of direction `d` through the centroid of `pts[idx]` (`idx` not empty).
@@ -535,15 +556,6 @@ fn line_through_centroid(pts: &[[f64; 2]], idx: &[usize], d: [f64; 2]) -> Line2 
     }
 }
 
-fn parallel_sides() -> Error {
-    Error::Degenerate {
-        what: WHAT,
-        why: "the two sides are parallel (all points on one line?), so there is no corner to \
-              fit; lower min_angle_deg only if the profile really is this flat"
-            .into(),
-    }
-}
-
 /// The searches on the problem prepared in `scratch`: Scheme 1, PSO, exact, and the
 /// rectified corner-region points. Fills the rest of `out`.
 pub fn solve_profile_2d<R: Rng + ?Sized>(
@@ -552,72 +564,21 @@ pub fn solve_profile_2d<R: Rng + ?Sized>(
     scratch: &mut ProfileScratch,
     out: &mut ProfileFit,
 ) -> Result<()> {
-    let s = scratch;
-    let Some(frame) = s.frame else {
-        return Err(Error::Degenerate {
-            what: WHAT,
-            why: "no prepared problem; call prepare_profile_2d first".into(),
-        });
-    };
-    let (ci, s1) = scheme1(&s.obj, &s.cand).ok_or(Error::TooFewPoints {
-        what: "2D profile fit: corner candidates",
-        needed: 1,
-        got: 0,
-    })?;
-    let mut hist = std::mem::take(&mut out.pso_history);
-    let mut init = std::mem::take(&mut s.init);
-    init.clear();
-    init.extend_from_slice(&s.cand);
-    if params.seed_with_intersection
-        && let Some(q) = s.meeting
-    {
-        init.push(q);
-    }
-    let p = pso(
-        &s.obj,
-        &init,
-        &s.basis,
-        s.cand_scale,
-        &params.pso,
-        params.pso.iterations_2d,
-        rng,
-        &mut s.swarm,
-        &mut hist,
+    let p = &mut scratch.fit;
+    let found = method::solve::<2, Profile, R>(p, params, rng, &mut out.pso_history)?;
+    out.scheme1 = found.scheme1;
+    out.scheme1_index = found.scheme1_at;
+    out.pso = found.pso;
+    out.exact = found.exact;
+    // A corner-region point belongs to neither side: it goes to the nearer half-line.
+    let rays = [out.local[0].direction, out.local[1].direction];
+    method::rectify(
+        &found.frame,
+        &p.loc,
+        &found.corner(params.rectify_with).point,
+        out.corner_region.iter().map(|&i| (i, &rays[..])),
+        &mut out.rectified,
     );
-    s.init = init;
-    let ex = exact_2d(&s.obj, &mut s.med)?;
-    let to_input = |r: Search<2>| Search {
-        point: frame.to_input(&r.point),
-        error: frame.length_to_input(r.error),
-        ..r
-    };
-    out.scheme1 = to_input(s1);
-    out.scheme1_index = s.cand_idx[ci];
-    out.pso = to_input(p);
-    out.exact = to_input(Search {
-        point: ex.point,
-        error: ex.error,
-        evaluations: ex.iterations,
-        converged_at: ex.iterations,
-    });
-    for h in hist.iter_mut() {
-        *h = frame.length_to_input(*h);
-    }
-    out.pso_history = hist;
-    if !(out.pso.error.is_finite() && finite(&out.pso.point)) {
-        return Err(Error::Degenerate {
-            what: WHAT,
-            why: "the swarm left the finite range; the profile is too degenerate to fit".into(),
-        });
-    }
-    // Rectify in the local frame, towards the chosen corner.
-    let q = frame.to_local(&out.corner(params.rectify_with).point);
-    let dirs = [out.local[0].direction, out.local[1].direction];
-    out.rectified.clear();
-    for &i in &out.corner_region {
-        let (foot, _) = nearest_on_rays(&s.loc[i], &q, &dirs);
-        out.rectified.push(frame.to_input(&foot));
-    }
     Ok(())
 }
 
@@ -632,4 +593,43 @@ fn intersection(a: &Line2, b: &Line2) -> Option<[f64; 2]> {
     let t = (w[0] * (-e[1]) - (-e[0]) * w[1]) / det;
     let q = [a.point[0] + t * d[0], a.point[1] + t * d[1]];
     q.iter().all(|x| x.is_finite()).then_some(q)
+}
+
+fn cross2(a: &[f64; 2], b: &[f64; 2]) -> f64 {
+    a[0] * b[1] - a[1] * b[0]
+}
+
+impl Case<2> for Profile {
+    const WHAT: &'static str = WHAT;
+    const APPROX: &'static str = "corner";
+
+    fn sine(a: &[f64; 2], b: &[f64; 2]) -> f64 {
+        cross2(a, b).abs()
+    }
+    const PARALLEL: &'static str = "the two sides are parallel (all points on one line?), so \
+        there is no corner to fit; lower min_angle_deg only if the profile really is this flat";
+
+    /// First axis along the bisector towards the tip (the abnormal zone lies inside the angle,
+    /// the corner at its tip), second axis 90° counter-clockwise from it.
+    fn swarm_basis(lines: &[Line2], canon: &[usize]) -> [[f64; 2]; 2] {
+        let (a, b) = (lines[canon[0]].direction, lines[canon[1]].direction);
+        let tip = unit(scale([a[0] + b[0], a[1] + b[1]], -1.0)).unwrap_or([-a[1], a[0]]);
+        [tip, [-tip[1], tip[0]]]
+    }
+
+    /// On a narrow V the error is nearly flat along the bisector: a swarm started only on
+    /// corner-region points (inside the V) stops inside it. The local fits' intersection
+    /// centres it on the optimum region (`seed_with_intersection`).
+    fn meeting_point(lines: &[Line2]) -> Option<[f64; 2]> {
+        intersection(&lines[0], &lines[1])
+    }
+
+    type Objective = FixedSlopes2;
+    /// The pair of medians (`exact_2d`).
+    fn exact(p: &mut Prepared<2, FixedSlopes2>, _params: &FitParams) -> Result<Exact<2>> {
+        exact_2d(&p.obj, &mut p.exact)
+    }
+    const CANDIDATES: &'static str = "2D profile fit: corner candidates";
+    const PREPARE: &'static str = "prepare_profile_2d";
+    const DIVERGED: &'static str = "the profile is";
 }

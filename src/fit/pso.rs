@@ -59,6 +59,18 @@ impl Default for PsoParams {
     }
 }
 
+impl PsoParams {
+    /// The iterations of a fit in `dim` dimensions: `iterations_2d` for an edge profile (2),
+    /// `iterations_3d` for a vertex.
+    pub fn iterations(&self, dim: usize) -> usize {
+        if dim == 2 {
+            self.iterations_2d
+        } else {
+            self.iterations_3d
+        }
+    }
+}
+
 /// Result of one search (PSO, GA or Scheme 1).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Search<const D: usize> {
@@ -223,7 +235,7 @@ pub(crate) fn argmin(v: &[f64]) -> usize {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::fit::objective::FixedSlopes2;
+    use crate::fit::objective::{FixedSlopes, FixedSlopes2};
     use rand::SeedableRng;
     use rand::rngs::SmallRng;
 

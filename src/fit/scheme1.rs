@@ -36,7 +36,7 @@ pub fn scheme1<const D: usize, O: Objective<D> + ?Sized>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::fit::objective::FixedSlopes2;
+    use crate::fit::objective::{FixedSlopes, FixedSlopes2};
 
     #[test]
     fn picks_the_data_point_with_least_error() {
