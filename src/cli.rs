@@ -126,8 +126,47 @@ pub struct SynthArgs {
     /// stand for; 0 samples the facets as they are (0..4).
     #[arg(long, default_value_t = 2)]
     pub subdivide: u32,
-    /// Also write each point's truth (scalar_abnormal, scalar_outlier, scalar_edge_distance)
-    /// into the PLY, for inspection.
+    /// Sampling pattern: uniform (a jittered grid on every face, the default), lines (parallel
+    /// scan lines: cuts by planes --line-gap spacings apart, sampled every spacing along
+    /// them), grid (structured light: a sensor casts a pixel grid of rays, the first hits are
+    /// the points; pitch grows with incidence, noise lies along the ray), view (the uniform
+    /// grid kept where a sensor sees it: faces turned away and hidden parts are missing).
+    #[arg(long, default_value = "uniform")]
+    pub pattern: String,
+    /// For --pattern lines: gap between the lines in along-line spacings (1..100).
+    #[arg(long, default_value_t = 3.0)]
+    pub line_gap: f64,
+    /// For --pattern lines: normal of the cut planes X,Y,Z (world; default drawn from --seed).
+    #[arg(long, value_delimiter = ',', num_args = 1..=3, allow_negative_numbers = true)]
+    pub line_direction: Option<Vec<f64>>,
+    /// For --pattern grid|view: a sensor position X,Y,Z (world), once per view; default:
+    /// drawn from --seed at 4 bounding radii from the part's centre.
+    #[arg(long, allow_negative_numbers = true)]
+    pub sensor: Vec<String>,
+    /// For --pattern grid|view: number of overlapping views (1..16). View v samples with pitch
+    /// spacing·2^(v/(views-1)), and every view after the first is misregistered.
+    #[arg(long)]
+    pub views: Option<usize>,
+    /// Largest displacement of a view by its misregistration (a small random rigid motion per
+    /// view, from --seed), in spacings.
+    #[arg(long, default_value_t = 0.2)]
+    pub misregistration: f64,
+    /// Density ratio between the two ends of the part (1: uniform density); the density falls
+    /// smoothly (exponentially) along --density-direction. Any pattern.
+    #[arg(long, default_value_t = 1.0)]
+    pub density_ratio: f64,
+    /// Direction X,Y,Z (world) in which the density falls (default drawn from --seed).
+    #[arg(long, value_delimiter = ',', num_args = 1..=3, allow_negative_numbers = true)]
+    pub density_direction: Option<Vec<f64>>,
+    /// Noise grows with the incidence angle θ at the sensor: sigma / cos θ, capped at
+    /// --incidence-cap times sigma. Any pattern (without views: from one sensor).
+    #[arg(long)]
+    pub incidence_noise: bool,
+    /// Largest noise factor of --incidence-noise (1..100).
+    #[arg(long, default_value_t = 4.0)]
+    pub incidence_cap: f64,
+    /// Also write each point's truth (scalar_abnormal, scalar_outlier, scalar_edge_distance,
+    /// and scalar_view for scans with views) into the PLY, for inspection.
     #[arg(long)]
     pub truth_fields: bool,
     /// Output cloud (PLY).
@@ -301,10 +340,37 @@ fn synth(cli: &Cli, a: &SynthArgs) -> anyhow::Result<()> {
         (Some(n), None) => Sampling::Points(n),
         (None, None) => Sampling::Points(100_000),
     };
-    let translate = match a.translate.as_deref() {
-        None => [0.0; 3],
-        Some([x, y, z]) => [*x, *y, *z],
-        Some(v) => anyhow::bail!("--translate takes three numbers X,Y,Z, got {}", v.len()),
+    let triple = |name: &str, v: Option<&[f64]>| -> anyhow::Result<Option<[f64; 3]>> {
+        match v {
+            None => Ok(None),
+            Some([x, y, z]) => Ok(Some([*x, *y, *z])),
+            Some(v) => anyhow::bail!("--{name} takes three numbers X,Y,Z, got {}", v.len()),
+        }
+    };
+    let translate = triple("translate", a.translate.as_deref())?.unwrap_or([0.0; 3]);
+    let sensors = a
+        .sensor
+        .iter()
+        .map(|s| {
+            let v: Vec<f64> = s
+                .split(',')
+                .map(|c| c.trim().parse::<f64>())
+                .collect::<Result<_, _>>()
+                .map_err(|e| anyhow::anyhow!("--sensor {s:?}: {e}"))?;
+            triple("sensor", Some(&v)).map(|t| t.unwrap_or([0.0; 3]))
+        })
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    let scan = sharpedge::synth::ScanPattern {
+        pattern: a.pattern.parse()?,
+        line_gap: a.line_gap,
+        line_direction: triple("line-direction", a.line_direction.as_deref())?,
+        views: a.views.unwrap_or(sensors.len().max(1)),
+        sensors,
+        misregistration: a.misregistration,
+        density_ratio: a.density_ratio,
+        density_direction: triple("density-direction", a.density_direction.as_deref())?,
+        incidence_noise: a.incidence_noise,
+        incidence_cap: a.incidence_cap,
     };
     let params = SynthParams {
         part,
@@ -325,6 +391,7 @@ fn synth(cli: &Cli, a: &SynthArgs) -> anyhow::Result<()> {
         sharp_angle: a.sharp_angle,
         subdivide: a.subdivide,
         jitter: a.jitter,
+        scan,
     };
     let scan = sharpedge::synth::generate(&params)?;
     let truth_path = a

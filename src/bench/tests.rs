@@ -295,6 +295,7 @@ fn truth_at(edge_distance: f64, abnormal: bool, outlier: bool) -> PointTruth {
         face: 0,
         abnormal,
         outlier,
+        view: u32::MAX,
     }
 }
 
@@ -530,6 +531,7 @@ fn away_mask_takes_every_edge_into_account_near_vertices() {
             face: 0,
             abnormal: false,
             outlier: false,
+            view: u32::MAX,
         }
     };
     let near_vertex = at(4.8 * h, 6.0 * h);
