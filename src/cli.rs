@@ -26,7 +26,7 @@ pub enum Command {
     /// Run the pipeline described by a pipeline.toml.
     Run(RunArgs),
     /// Simulate a scan of a part with known edges and corners (ground truth as JSON).
-    Synth(SynthArgs),
+    Synth(Box<SynthArgs>),
     /// Describe a point cloud file: format, point count, properties, bounding box, spacing.
     Info(InfoArgs),
     /// Reproduce the paper's experiments (§4) on generated data.

@@ -212,7 +212,7 @@ impl GridIndex {
                 t1 = t1.min(a.max(b));
             }
         }
-        if !(t0 <= t1) {
+        if t0.is_nan() || t1.is_nan() || t0 > t1 {
             return;
         }
         let mut cell = [0usize; 3];

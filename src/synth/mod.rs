@@ -221,7 +221,11 @@ impl Scan {
     }
 }
 
-pub(crate) fn bad(name: &'static str, value: impl std::fmt::Display, allowed: impl Into<String>) -> Error {
+pub(crate) fn bad(
+    name: &'static str,
+    value: impl std::fmt::Display,
+    allowed: impl Into<String>,
+) -> Error {
     Error::SynthParam {
         name,
         value: value.to_string(),
@@ -788,6 +792,11 @@ fn ground_truth(
     gt
 }
 
+/// The product of two 3x3 matrices (rows).
+fn mat_mul(a: &[V3; 3], b: &[V3; 3]) -> [V3; 3] {
+    [0, 1, 2].map(|i| [0, 1, 2].map(|j| (0..3).map(|k| a[i][k] * b[k][j]).sum()))
+}
+
 /// The scanner's part of the ground truth, in world coordinates.
 fn scanner_truth(gt: &mut GroundTruth, s: &sample::Settings) {
     let rot = s.rotation;
@@ -802,13 +811,8 @@ fn scanner_truth(gt: &mut GroundTruth, s: &sample::Settings) {
             // A view's world points x were moved to R M Rᵀ (x − T) + R m + T.
             let (rv, tv) = match &view.motion {
                 Some(m) => {
-                    let rm_rt = [0, 1, 2].map(|i| mat_vec(&rt, m.rot[i]));
-                    let rv = [0, 1, 2].map(|i| mat_vec(&rm_rt, rot[i]));
-                    let rv = [0, 1, 2].map(|i| [0, 1, 2].map(|j| rv[j][i]));
-                    let tv = geom::add(
-                        geom::sub(t, mat_vec(&rv, t)),
-                        mat_vec(&rot, m.trans),
-                    );
+                    let rv = mat_mul(&mat_mul(&rot, &m.rot), &rt);
+                    let tv = geom::add(geom::sub(t, mat_vec(&rv, t)), mat_vec(&rot, m.trans));
                     (rv, tv)
                 }
                 None => (IDENTITY, [0.0; 3]),

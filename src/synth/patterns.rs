@@ -30,9 +30,9 @@ use super::scanner::{Camera, Lines, View};
 pub const BLOCK: i64 = 32;
 /// Pixels per side of a grid scan's work unit.
 pub const PIXELS: i64 = 64;
-const TAG_LINE_UNIT: u64 = 0x11_4E_5017;
-const TAG_LINE_CHART: u64 = 0x11_4E_C4A7;
-const TAG_PIXEL_UNIT: u64 = 0x91_CE_1017;
+const TAG_LINE_UNIT: u64 = 0x114E_5017;
+const TAG_LINE_CHART: u64 = 0x114E_C4A7;
+const TAG_PIXEL_UNIT: u64 = 0x91CE_1017;
 
 /// A line scan of the model.
 pub struct LineScan<'a> {
@@ -68,7 +68,7 @@ impl LineScan<'_> {
         for (ci, chart) in model.charts.iter().enumerate() {
             let c = cross(chart.normal, self.lines.normal);
             let len = norm(c);
-            if !(len >= 1e-9) {
+            if len.is_nan() || len < 1e-9 {
                 continue;
             }
             let l = scale(c, 1.0 / len);
@@ -135,7 +135,7 @@ impl Source for LineScan<'_> {
                     std::mem::swap(&mut a, &mut b);
                     std::mem::swap(&mut sa, &mut sb);
                 }
-                if !(sb - sa > 0.0) {
+                if (sb - sa).is_nan() || sb <= sa {
                     continue;
                 }
                 let line_key = mix(chart_seed ^ mix(k as u64));

@@ -37,7 +37,7 @@ pub fn ray_triangle(o: V3, d: V3, a: V3, b: V3, c: V3) -> Option<(f64, f64, f64)
     let pv = cross(d, e2);
     let det = dot(e1, pv);
     let scale_ref = dot(e1, e1).max(dot(e2, e2)) * dot(d, d).sqrt();
-    if !(det.abs() > 1e-14 * scale_ref) {
+    if det.is_nan() || det.abs() <= 1e-14 * scale_ref {
         return None; // parallel to the plane, or zero area
     }
     let inv = 1.0 / det;
@@ -80,7 +80,8 @@ impl<'a> Caster<'a> {
         let mut best: Option<(f64, u32, f64, f64)> = None;
         self.grid.ray_cells(o, d, t_max, |items, t_exit| {
             for &id in items {
-                let [a, b, c] = self.mesh.triangles[id as usize].map(|i| self.mesh.vertices[i as usize]);
+                let [a, b, c] =
+                    self.mesh.triangles[id as usize].map(|i| self.mesh.vertices[i as usize]);
                 if let Some((t, u, v)) = ray_triangle(o, d, a, b, c) {
                     let better = best.is_none_or(|(bt, bi, _, _)| t < bt || (t == bt && id < bi));
                     if t <= t_max && better {
@@ -91,7 +92,8 @@ impl<'a> Caster<'a> {
             best.is_some_and(|(t, _, _, _)| t <= t_exit)
         });
         best.map(|(t, tri, u, v)| {
-            let [a, b, c] = self.mesh.triangles[tri as usize].map(|i| self.mesh.vertices[i as usize]);
+            let [a, b, c] =
+                self.mesh.triangles[tri as usize].map(|i| self.mesh.vertices[i as usize]);
             // On the triangle by its barycentric coordinates (exact to rounding), not o + t d.
             let point = add(a, add(scale(sub(b, a), u), scale(sub(c, a), v)));
             Hit { t, tri, point }

@@ -117,7 +117,12 @@ impl Settings {
                 .map(|k| self.outlier_lo[k] + u[k] * (self.outlier_hi[k] - self.outlier_lo[k]));
             return (q, true);
         }
-        if let Some(m) = self.scanner.views.get(view as usize).and_then(|v| v.motion.as_ref()) {
+        if let Some(m) = self
+            .scanner
+            .views
+            .get(view as usize)
+            .and_then(|v| v.motion.as_ref())
+        {
             p = m.apply(p);
         }
         (self.world(p), false)
@@ -345,8 +350,7 @@ impl Uniform<'_> {
             .map(|(g, ci)| {
                 let (h, seed) = self.grids[g];
                 let frame = Frame::new(model, ci, h, seed);
-                let mut map: std::collections::BTreeMap<(i64, i64), Vec<u32>> =
-                    Default::default();
+                let mut map: std::collections::BTreeMap<(i64, i64), Vec<u32>> = Default::default();
                 for &t in &model.charts[ci].tris {
                     let q = model.mesh.triangles[t as usize]
                         .map(|v| frame.grid(model.mesh.vertices[v as usize]));
@@ -419,8 +423,7 @@ impl Source for Uniform<'_> {
                 let (lo, hi) = if ids[a] < ids[b] { (a, b) } else { (b, a) };
                 base[k] = q[lo];
                 dirv[k] = [q[hi][0] - q[lo][0], q[hi][1] - q[lo][1]];
-                let e =
-                    dirv[k][0] * (q[k][1] - base[k][1]) - dirv[k][1] * (q[k][0] - base[k][0]);
+                let e = dirv[k][0] * (q[k][1] - base[k][1]) - dirv[k][1] * (q[k][0] - base[k][0]);
                 if e == 0.0 || !e.is_finite() {
                     degenerate = true;
                 }
@@ -449,8 +452,7 @@ impl Source for Uniform<'_> {
                     let mut w = [0.0; 3];
                     let mut inside = true;
                     for k in 0..3 {
-                        let e =
-                            dirv[k][0] * (p[1] - base[k][1]) - dirv[k][1] * (p[0] - base[k][0]);
+                        let e = dirv[k][0] * (p[1] - base[k][1]) - dirv[k][1] * (p[0] - base[k][0]);
                         let se = sign[k] * e;
                         if se > 0.0 || (e == 0.0 && sign[k] > 0.0) {
                             w[k] = se;
@@ -463,8 +465,8 @@ impl Source for Uniform<'_> {
                         continue;
                     }
                     let sum = w[0] + w[1] + w[2];
-                    let pt = [0, 1, 2]
-                        .map(|c| (w[0] * x[0][c] + w[1] * x[1][c] + w[2] * x[2][c]) / sum);
+                    let pt =
+                        [0, 1, 2].map(|c| (w[0] * x[0][c] + w[1] * x[1][c] + w[2] * x[2][c]) / sum);
                     f(Sample {
                         tri: t,
                         p: pt,
@@ -537,7 +539,9 @@ fn finish_sample(
     rng: &mut SmallRng,
     smp: Sample,
 ) -> (V3, PointTruth) {
-    let Sample { tri: t, p, view, .. } = smp;
+    let Sample {
+        tri: t, p, view, ..
+    } = smp;
     let n = model.tri_normals[t as usize];
     let mut nearest = (f64::INFINITY, u32::MAX);
     let mut pick: Option<(f64, usize, usize)> = None;

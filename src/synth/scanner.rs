@@ -50,9 +50,9 @@
 //! density gradient. Occlusion is not counted, so a non-convex part seen from one side gives
 //! somewhat fewer than N points.
 
+use rand::RngExt;
 use rand::SeedableRng;
 use rand::rngs::SmallRng;
-use rand::RngExt;
 use serde::{Deserialize, Serialize};
 
 use super::features::Model;
@@ -170,9 +170,27 @@ impl ScanPattern {
             }
         };
         range("line_gap", self.line_gap, 1.0, 100.0, "along-line spacings")?;
-        range("misregistration", self.misregistration, 0.0, 10.0, "spacings")?;
-        range("density_ratio", self.density_ratio, 1.0, 100.0, "dense end over sparse end")?;
-        range("incidence_cap", self.incidence_cap, 1.0, 100.0, "largest noise factor")?;
+        range(
+            "misregistration",
+            self.misregistration,
+            0.0,
+            10.0,
+            "spacings",
+        )?;
+        range(
+            "density_ratio",
+            self.density_ratio,
+            1.0,
+            100.0,
+            "dense end over sparse end",
+        )?;
+        range(
+            "incidence_cap",
+            self.incidence_cap,
+            1.0,
+            100.0,
+            "largest noise factor",
+        )?;
         if !(1..=16).contains(&self.views) {
             return Err(bad("views", self.views, "must be 1 to 16"));
         }
@@ -199,12 +217,24 @@ impl ScanPattern {
         ] {
             if let Some(d) = d {
                 if normalize(d).is_none() {
-                    return Err(bad(name, format!("{d:?}"), "must be a finite non-zero vector"));
+                    return Err(bad(
+                        name,
+                        format!("{d:?}"),
+                        "must be a finite non-zero vector",
+                    ));
                 }
             }
         }
-        if let Some(s) = self.sensors.iter().find(|s| s.iter().any(|c| !c.is_finite())) {
-            return Err(bad("sensors", format!("{s:?}"), "every coordinate must be finite"));
+        if let Some(s) = self
+            .sensors
+            .iter()
+            .find(|s| s.iter().any(|c| !c.is_finite()))
+        {
+            return Err(bad(
+                "sensors",
+                format!("{s:?}"),
+                "every coordinate must be finite",
+            ));
         }
         Ok(())
     }
@@ -493,7 +523,7 @@ pub fn pitch_weight(model: &Model, lay: &Layout, scan: &ScanPattern, t: usize) -
             .sum(),
         Pattern::Grid => {
             let area = 0.5 * norm(cross(sub(tri[1], tri[0]), sub(tri[2], tri[0])));
-            if !(area > 0.0) {
+            if area.is_nan() || area <= 0.0 {
                 return 0.0;
             }
             lay.sensors
