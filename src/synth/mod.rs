@@ -1,15 +1,17 @@
 //! The scan simulator: point clouds of parts with known sharp edges and corners.
 //!
 //! Input: [`SynthParams`] — a part (parametric shape, sphere, or a triangle mesh file), its
-//! size, the sampling (point count or spacing), the scan's disturbances (noise, edge rounding,
-//! extra noise near edges, outliers), a rigid placement (random rotation, translation) and a
-//! seed. Output: a [`Scan`] — the [`Cloud`] of simulated scanner points, a [`PointTruth`] per
+//! size, the sampling (point count or spacing) and its pattern ([`ScanPattern`]: uniform, scan
+//! lines, structured-light grid, one or several views, density gradient, incidence noise), the
+//! scan's disturbances (noise, edge rounding, extra noise near edges, outliers), a rigid
+//! placement (random rotation, translation) and a seed. Output: a [`Scan`] — the [`Cloud`] of simulated scanner points, a [`PointTruth`] per
 //! point (its noise-free place on the sharp part, its distance to the nearest sharp edge,
 //! whether it lies in the abnormal zone or is an outlier), and the [`GroundTruth`] of the part
-//! (edges, corners, faces, exact surface, transform) that serialises to JSON and answers exact
-//! distance queries for the benchmark.
+//! (edges, corners, faces, exact surface, transform; the sensors, cut planes and density
+//! gradient of patterned scans) that serialises to JSON and answers exact distance queries
+//! for the benchmark.
 //!
-//! How a point is made (details in the submodules):
+//! How a point is made (details in the submodules; `scan_mesh` runs these steps by name):
 //! 1. The part is a closed triangle mesh in model coordinates (the sphere is analytic), scaled
 //!    to `size` and centred on the origin. Sharp edges, corners and planar charts come from
 //!    [`features`]; for parametric parts every non-coplanar mesh edge is sharp, for meshes
@@ -21,17 +23,26 @@
 //!    0.93–0.94). On meshes whose planar charts are only a few spacings wide the independent
 //!    grids of neighbouring charts bring points closer (fandisk: 0.77 at 5k points, 0.91 at
 //!    200k, 0.935 at 1M). Given a point count `N`, `h = sqrt(area / N)`.
+//!    Other patterns (module [`scanner`] documents each; `patterns` and [`raycast`] make them)
+//!    replace this grid: scan lines (planes cut the triangles, points every `h` along each
+//!    cut), a structured-light pixel grid from sensors (first hits of rays, so occlusion is
+//!    real), the grid kept where a sensor sees it (one or several views, each misregistered a
+//!    little), thinned by a smooth density gradient; `h` then follows from the points the
+//!    pattern lays per h² of each triangle, so `N` is still about the total.
 //! 3. Samples within the tangent distance of a sharp edge move onto a fillet of radius
 //!    `round · h` (their closest point on the rounded part, [`fillet`]); samples within
 //!    `edge_band · h` of an edge get extra Gaussian noise `edge_noise · h`. Both make the
-//!    "abnormal zone" of the paper's Figure 1. Every point gets Gaussian noise `noise · h`.
+//!    "abnormal zone" of the paper's Figure 1. Every point gets Gaussian noise `noise · h`
+//!    (along the sensor's ray for sensor patterns; growing as 1 / cos of the incidence angle
+//!    with `incidence_noise`); a misregistered view then moves its points rigidly.
 //! 4. A fraction `outliers` of the points is replaced by uniform points in the part's world
 //!    bounding box enlarged by 5 % per side.
 //! 5. world = R · model + T, R uniform on SO(3) from the seed when `rotate` is set.
 //!
-//! Determinism: every random draw comes from an RNG seeded by (seed, chart, tile) or a hash of
-//! (seed, chart, grid node), never from shared state, so the output is identical for any
-//! number of rayon threads. Memory: two passes over the tiles (count, then fill into
+//! Determinism: every random draw comes from an RNG seeded by (seed, chart, tile) — (seed,
+//! chart, plane block) for scan lines, (seed, view, pixel tile) for sensor grids — or a hash
+//! of (seed, chart, grid node / line sample / pixel), never from shared state, so the output
+//! is identical for any number of rayon threads. Memory: two passes over the tiles (count, then fill into
 //! preallocated arrays); nothing is allocated per point.
 
 pub mod features;
@@ -211,7 +222,7 @@ impl Scan {
                 ),
             },
         ];
-        if !self.ground_truth.sensors.is_empty() {
+        if self.truth.iter().any(|t| t.view != u32::MAX) {
             attrs.push(Attribute {
                 name: "scalar_view".into(),
                 values: Column::U8(self.truth.iter().map(|t| t.view.min(255) as u8).collect()),

@@ -1,6 +1,7 @@
 //! Scanner-like sampling of a [`Model`] (or of a sphere) with rounding, noise and outliers.
 //!
-//! Input: the model, its fillets, the sampling pitch `h` and the disturbance parameters.
+//! Input: the model, its fillets, the sampling pitch `h`, the disturbance parameters and the
+//! resolved scanner (scanner.rs).
 //! Output: world positions and a [`PointTruth`] per point, written into preallocated arrays.
 //!
 //! Grid. Every chart (a set of coplanar triangles) gets one square grid of pitch `h` in its
@@ -14,11 +15,17 @@
 //! triangle, so it lies on the mesh to rounding error. The expected count on a face of area A
 //! is A / h², because the grid offset is uniform.
 //!
-//! Work units. The grid of every chart is cut into tiles of `TILE × TILE` nodes. A first
-//! parallel pass counts each tile's points (and their bounding box), a prefix sum gives every
-//! tile its slice of the output, and a second parallel pass fills the slices. Each tile draws
-//! noise and outliers from its own RNG seeded from (seed, chart, tile), so the output is the
-//! same for any number of threads, and nothing is allocated per point.
+//! Work units. Every pattern is a [`Source`] of work units that lists its candidate samples in
+//! a fixed order; the uniform grid of every chart is cut into tiles of `TILE × TILE` nodes
+//! (the other patterns' units are in patterns.rs). [`Keep`] decides which candidates become
+//! points (the density gradient's hashed draw; for one-view scans the face must turn towards
+//! the sensor and the line of sight must be free, raycast.rs). A first parallel pass counts
+//! each unit's points (and their bounding box), a prefix sum gives every unit its slice of
+//! the output, and a second parallel pass fills the slices. Each unit draws noise and
+//! outliers from its own RNG seeded from (seed, chart, tile) or the pattern's equivalent, so
+//! the output is the same for any number of threads, and nothing is allocated per point.
+//! Every candidate then goes through the same finishing step (nearest edge, rounding, band
+//! noise, noise, outliers, misregistration, world transform).
 //!
 //! Sphere. A Fibonacci lattice (golden-angle spiral) with a tangential jitter, projected back
 //! onto the sphere, one point per h² of area.
