@@ -137,11 +137,11 @@ pub struct SynthArgs {
     #[arg(long, default_value_t = 3.0)]
     pub line_gap: f64,
     /// For --pattern lines: normal of the cut planes X,Y,Z (world; default drawn from --seed).
-    #[arg(long, value_delimiter = ',', num_args = 1..=3, allow_negative_numbers = true)]
-    pub line_direction: Option<Vec<f64>>,
+    #[arg(long, allow_hyphen_values = true)]
+    pub line_direction: Option<String>,
     /// For --pattern grid|view: a sensor position X,Y,Z (world), once per view; default:
     /// drawn from --seed at 4 bounding radii from the part's centre.
-    #[arg(long, allow_negative_numbers = true)]
+    #[arg(long, allow_hyphen_values = true)]
     pub sensor: Vec<String>,
     /// For --pattern grid|view: number of overlapping views (1..16). View v samples with pitch
     /// spacing·2^(v/(views-1)), and every view after the first is misregistered.
@@ -156,8 +156,8 @@ pub struct SynthArgs {
     #[arg(long, default_value_t = 1.0)]
     pub density_ratio: f64,
     /// Direction X,Y,Z (world) in which the density falls (default drawn from --seed).
-    #[arg(long, value_delimiter = ',', num_args = 1..=3, allow_negative_numbers = true)]
-    pub density_direction: Option<Vec<f64>>,
+    #[arg(long, allow_hyphen_values = true)]
+    pub density_direction: Option<String>,
     /// Noise grows with the incidence angle θ at the sensor: sigma / cos θ, capped at
     /// --incidence-cap times sigma. Any pattern (without views: from one sensor).
     #[arg(long)]
@@ -348,27 +348,37 @@ fn synth(cli: &Cli, a: &SynthArgs) -> anyhow::Result<()> {
         }
     };
     let translate = triple("translate", a.translate.as_deref())?.unwrap_or([0.0; 3]);
+    // "X,Y,Z" as one value, so a leading minus is not taken for an option.
+    let point = |name: &str, s: &str| -> anyhow::Result<[f64; 3]> {
+        let v: Vec<f64> = s
+            .split(',')
+            .map(|c| c.trim().parse::<f64>())
+            .collect::<Result<_, _>>()
+            .map_err(|e| anyhow::anyhow!("--{name} {s:?}: {e}"))?;
+        triple(name, Some(&v)).map(|t| t.unwrap_or([0.0; 3]))
+    };
     let sensors = a
         .sensor
         .iter()
-        .map(|s| {
-            let v: Vec<f64> = s
-                .split(',')
-                .map(|c| c.trim().parse::<f64>())
-                .collect::<Result<_, _>>()
-                .map_err(|e| anyhow::anyhow!("--sensor {s:?}: {e}"))?;
-            triple("sensor", Some(&v)).map(|t| t.unwrap_or([0.0; 3]))
-        })
+        .map(|s| point("sensor", s))
         .collect::<anyhow::Result<Vec<_>>>()?;
     let scan = sharpedge::synth::ScanPattern {
         pattern: a.pattern.parse()?,
         line_gap: a.line_gap,
-        line_direction: triple("line-direction", a.line_direction.as_deref())?,
+        line_direction: a
+            .line_direction
+            .as_deref()
+            .map(|s| point("line-direction", s))
+            .transpose()?,
         views: a.views.unwrap_or(sensors.len().max(1)),
         sensors,
         misregistration: a.misregistration,
         density_ratio: a.density_ratio,
-        density_direction: triple("density-direction", a.density_direction.as_deref())?,
+        density_direction: a
+            .density_direction
+            .as_deref()
+            .map(|s| point("density-direction", s))
+            .transpose()?,
         incidence_noise: a.incidence_noise,
         incidence_cap: a.incidence_cap,
     };

@@ -415,7 +415,8 @@ fn density_differs_by_the_ratio_from_one_end_to_the_other() {
             ScanPattern {
                 density_ratio: ratio,
                 density_direction: Some([1.0, 0.0, 0.0]),
-                line_direction: Some(normalize([0.3, 0.2, 1.0]).unwrap()),
+                line_direction: (pat == Pattern::Lines)
+                    .then(|| normalize([0.3, 0.2, 1.0]).unwrap()),
                 ..pattern(pat)
             },
         ))
@@ -599,6 +600,20 @@ fn bad_pattern_settings_are_named() {
         })
         .contains("density_direction")
     );
+    assert!(
+        err(ScanPattern {
+            sensors: vec![[500.0, 0.0, 0.0]],
+            ..pattern(Pattern::Lines)
+        })
+        .contains("sensors are used by")
+    );
+    assert!(
+        err(ScanPattern {
+            line_direction: Some([0.0, 0.0, 1.0]),
+            ..pattern(Pattern::Grid)
+        })
+        .contains("line_direction")
+    );
     let sphere = generate(&params(Part::Sphere, 1_000, pattern(Pattern::Grid)));
     assert!(sphere.unwrap_err().to_string().contains("sphere"));
     // Old truth files (without the pattern) still read, as uniform scans.
@@ -608,4 +623,55 @@ fn bad_pattern_settings_are_named() {
     .unwrap();
     let gt = GroundTruth::from_json(&old).unwrap();
     assert!(gt.params.scan.is_default() && gt.sensors.is_empty() && gt.lines.is_none());
+}
+
+#[test]
+fn cli_writes_patterned_scans_and_their_sensors() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("l.ply");
+    let run = |args: &[&str]| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_sharpedge"))
+            .arg("-q")
+            .arg("synth")
+            .args(args)
+            .output()
+            .unwrap()
+    };
+    let o = run(&[
+        "--part",
+        "lblock",
+        "--points",
+        "5000",
+        "--pattern",
+        "grid",
+        "--sensor",
+        "150,-20,40",
+        "--sensor",
+        "-150,30,60",
+        "--truth-fields",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let gt = GroundTruth::read(&dir.path().join("l.truth.json")).unwrap();
+    assert_eq!(gt.params.scan.pattern, Pattern::Grid);
+    assert_eq!(gt.params.scan.views, 2);
+    let pos: Vec<V3> = gt.sensors.iter().map(|s| s.position).collect();
+    assert_eq!(pos, vec![[150.0, -20.0, 40.0], [-150.0, 30.0, 60.0]]);
+    let ply = std::fs::read(&out).unwrap();
+    let header = String::from_utf8_lossy(&ply[..400.min(ply.len())]).into_owned();
+    assert!(header.contains("scalar_view"), "{header}");
+    // A pattern that does not exist, and a sensor with two coordinates, are named.
+    let bad = run(&["--pattern", "spiral", "--out", out.to_str().unwrap()]);
+    assert!(!bad.status.success());
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("uniform, lines, grid, view"));
+    let bad = run(&[
+        "--pattern",
+        "view",
+        "--sensor",
+        "1,2",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("--sensor takes three numbers"));
 }

@@ -211,6 +211,28 @@ impl ScanPattern {
                 ),
             ));
         }
+        // A setting the pattern would ignore is a mistake in the request, not a no-op.
+        if !self.sensors.is_empty() && !self.needs_sensor() {
+            return Err(bad(
+                "sensors",
+                self.sensors.len(),
+                "sensors are used by the grid and view patterns and by incidence noise only",
+            ));
+        }
+        if self.line_direction.is_some() && self.pattern != Pattern::Lines {
+            return Err(bad(
+                "line_direction",
+                format!("{:?}", self.line_direction),
+                format!("is for the lines pattern, not {}", self.pattern.name()),
+            ));
+        }
+        if self.density_direction.is_some() && self.density_ratio == 1.0 {
+            return Err(bad(
+                "density_direction",
+                format!("{:?}", self.density_direction),
+                "needs a density_ratio above 1",
+            ));
+        }
         for (name, d) in [
             ("line_direction", self.line_direction),
             ("density_direction", self.density_direction),
