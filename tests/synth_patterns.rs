@@ -571,49 +571,55 @@ fn bad_pattern_settings_are_named() {
             .unwrap_err()
             .to_string()
     };
-    assert!(
-        err(ScanPattern {
-            line_gap: 0.5,
-            ..pattern(Pattern::Lines)
-        })
-        .contains("line_gap")
-    );
-    assert!(
-        err(ScanPattern {
-            views: 2,
-            ..pattern(Pattern::Lines)
-        })
-        .contains("views")
-    );
-    assert!(
-        err(ScanPattern {
-            sensors: vec![[1.0, 2.0, 3.0]],
-            ..pattern(Pattern::Grid)
-        })
-        .contains("outside the part's bounding sphere")
-    );
-    assert!(
-        err(ScanPattern {
-            density_direction: Some([0.0; 3]),
-            density_ratio: 2.0,
-            ..Default::default()
-        })
-        .contains("density_direction")
-    );
-    assert!(
-        err(ScanPattern {
-            sensors: vec![[500.0, 0.0, 0.0]],
-            ..pattern(Pattern::Lines)
-        })
-        .contains("sensors are used by")
-    );
-    assert!(
-        err(ScanPattern {
-            line_direction: Some([0.0, 0.0, 1.0]),
-            ..pattern(Pattern::Grid)
-        })
-        .contains("line_direction")
-    );
+    let cases = [
+        (
+            ScanPattern {
+                line_gap: 0.5,
+                ..pattern(Pattern::Lines)
+            },
+            "line_gap",
+        ),
+        (
+            ScanPattern {
+                views: 2,
+                ..pattern(Pattern::Lines)
+            },
+            "views",
+        ),
+        (
+            ScanPattern {
+                sensors: vec![[1.0, 2.0, 3.0]],
+                ..pattern(Pattern::Grid)
+            },
+            "outside the part's bounding sphere",
+        ),
+        (
+            ScanPattern {
+                density_direction: Some([0.0; 3]),
+                density_ratio: 2.0,
+                ..Default::default()
+            },
+            "density_direction",
+        ),
+        (
+            ScanPattern {
+                sensors: vec![[500.0, 0.0, 0.0]],
+                ..pattern(Pattern::Lines)
+            },
+            "sensors are used by",
+        ),
+        (
+            ScanPattern {
+                line_direction: Some([0.0, 0.0, 1.0]),
+                ..pattern(Pattern::Grid)
+            },
+            "line_direction",
+        ),
+    ];
+    for (scan, want) in cases {
+        let e = err(scan);
+        assert!(e.contains(want), "{e}");
+    }
     let sphere = generate(&params(Part::Sphere, 1_000, pattern(Pattern::Grid)));
     assert!(sphere.unwrap_err().to_string().contains("sphere"));
     // Old truth files (without the pattern) still read, as uniform scans.
