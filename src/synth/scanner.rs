@@ -41,7 +41,9 @@
 //! `grid` and `view` (a depth sensor's error). With `incidence_noise` its sigma is multiplied
 //! by `1 / cos θ` (θ between the face normal and the ray to the point's sensor; the first
 //! sensor for patterns without views), at most `incidence_cap`: at 60° the noise is twice
-//! that at 0°.
+//! that at 0°. Isotropic noise then doubles across the face too; noise along the ray (grid,
+//! view) doubles along the ray, and its part across the face (the ray's times cos θ) stays
+//! `sigma`, as a depth sensor's does.
 //!
 //! Point count: given N points, `h = sqrt(Σ A_t w_t / N)` over the triangles, `w_t` the
 //! pattern's points per `h²` of area on triangle t ([`pitch_weight`]): 1 for uniform,
