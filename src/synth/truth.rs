@@ -77,6 +77,23 @@ pub struct TruthFace {
     pub triangles: usize,
 }
 
+/// A wide fillet (a random part's rounded vertical edge): no sharp edge. A correct tool finds
+/// no edge along it and moves none of its points; its points and those within the away
+/// margin of its tangent lines do not count as "away from edges" (bench).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TruthFillet {
+    pub id: usize,
+    /// Radius in model units and in spacings.
+    pub radius: f64,
+    pub radius_h: f64,
+    /// Interior angle of the edge it rounds off (degrees; 90 for a box's edge).
+    pub angle_deg: f64,
+    /// The faces (charts) of its curved surface: `PointTruth::face` of its points.
+    pub faces: Vec<usize>,
+    /// The two lines where it meets the flat faces (world coordinates, bottom to top).
+    pub tangent_lines: [[V3; 2]; 2],
+}
+
 /// The exact surface of the sharp (unrounded) part, in world coordinates.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
@@ -103,7 +120,8 @@ struct Indexes {
 pub struct GroundTruth {
     /// Identifies the JSON layout.
     pub format: String,
-    /// Part name: box, lblock, step, wedge, prism, pyramid, sphere, or the mesh file's name.
+    /// Part name: box, lblock, step, wedge, prism, pyramid, sphere, random, or the mesh file's
+    /// name.
     pub part: String,
     pub params: SynthParams,
     /// Sampling pitch actually used (model units = world units).
@@ -125,6 +143,12 @@ pub struct GroundTruth {
     pub faces: Vec<TruthFace>,
     pub surface: TruthSurface,
     pub mesh_stats: MeshStats,
+    /// Wide fillets (random parts): smooth, not sharp edges.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub fillets: Vec<TruthFillet>,
+    /// What the random part's generator drew (random parts only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub random: Option<super::random::RandomDraw>,
     #[serde(skip)]
     index: OnceLock<Indexes>,
 }
@@ -166,6 +190,8 @@ impl PartialEq for GroundTruth {
             && self.faces == o.faces
             && self.surface == o.surface
             && self.mesh_stats == o.mesh_stats
+            && self.fillets == o.fillets
+            && self.random == o.random
     }
 }
 
@@ -218,6 +244,8 @@ impl GroundTruth {
             faces,
             surface,
             mesh_stats,
+            fillets: Vec::new(),
+            random: None,
             index: OnceLock::new(),
         }
     }
