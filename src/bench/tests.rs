@@ -593,7 +593,7 @@ fn edges_with_an_unseen_face_are_not_required_and_count_against_precision() {
     assert!((m.recall.unwrap() - 1.0).abs() < 1e-12);
     // Each far end of a required edge is a corner with two border edges: 3 · 2 · 2 h of
     // them lie within the tolerance.
-    let want = (required + 12.0 * EDGE_TOL * h) / total;
+    let want = (required + 6.0 * EDGE_TOL * h) / total;
     assert!(
         (m.precision.unwrap() - want).abs() < 1e-9,
         "precision {:?}, want {want}",

@@ -307,9 +307,16 @@ fn draw_polygon(rng: &mut SmallRng, n: usize, concave: usize) -> Option<Vec<P2>>
     (area2(&poly) > 0.0 && self_clearance(&poly) >= 0.08).then_some(poly)
 }
 
-/// Chamfers and fillets on the vertices of `poly` (see the module comment). Returns the new
-/// profile with tags, the fillets' radii and angles, and the chamfer count.
-fn round_vertices(rng: &mut SmallRng, poly: &[P2]) -> (Vec<(P2, Tag)>, Vec<(f64, f64)>, usize) {
+/// A profile after chamfers and fillets: its vertices with tags, each fillet's radius and
+/// interior angle (degrees), and the chamfer count.
+struct Rounded {
+    profile: Vec<(P2, Tag)>,
+    fillets: Vec<(f64, f64)>,
+    chamfers: usize,
+}
+
+/// Chamfers and fillets on the vertices of `poly` (see the module comment).
+fn round_vertices(rng: &mut SmallRng, poly: &[P2]) -> Rounded {
     let n = poly.len();
     let angles = interior_angles(poly);
     let side = |i: usize| len2(sub2(poly[(i + 1) % n], poly[i]));
@@ -370,7 +377,11 @@ fn round_vertices(rng: &mut SmallRng, poly: &[P2]) -> (Vec<(P2, Tag)>, Vec<(f64,
         }
         out.push((v, Tag::Plain));
     }
-    (out, fillets, chamfers)
+    Rounded {
+        profile: out,
+        fillets,
+        chamfers,
+    }
 }
 
 /// The profile offset inwards by `d` (outwards for `d < 0`): every side moves along its
@@ -567,7 +578,11 @@ fn attempt_part(rng: &mut SmallRng) -> Option<RandomPart> {
     let n = rng.random_range(4..=9usize);
     let concave = rng.random_range(0..=(n - 3).min(3));
     let base = draw_polygon(rng, n, concave)?;
-    let (profile, fillet_params, chamfers) = round_vertices(rng, &base);
+    let Rounded {
+        profile,
+        fillets: fillet_params,
+        chamfers,
+    } = round_vertices(rng, &base);
     let height: f64 = rng.random_range(0.25..0.7);
     let bottom: Vec<P2> = profile.iter().map(|p| p.0).collect();
     let mut taper_deg = 0.0;
