@@ -15,7 +15,10 @@
 //! 1. The part is a closed triangle mesh in model coordinates (the sphere is analytic), scaled
 //!    to `size` and centred on the origin. Sharp edges, corners and planar charts come from
 //!    [`features`]; for parametric parts every non-coplanar mesh edge is sharp, for meshes
-//!    from files those whose normals differ by more than `sharp_angle`.
+//!    from files those whose normals differ by more than `sharp_angle`. A random part
+//!    ([`random`], drawn from the seed) brings its own sharp edges: every non-coplanar edge
+//!    but the facets of its wide fillets, which are sampled like curved patches and appear in
+//!    the ground truth as [`TruthFillet`]s, not as edges.
 //! 2. Each chart is sampled on a jittered square grid of pitch `h` (module `sample`), like the
 //!    regular raster of a structured-light or laser scanner. The mean nearest-neighbour
 //!    distance is [`NN_RATIO`]` · h` = 0.955 h with the default jitter 0.1 (measured on a
@@ -52,6 +55,7 @@ pub mod index;
 pub mod parts;
 mod patterns;
 pub mod raycast;
+pub mod random;
 mod sample;
 pub mod scanner;
 pub mod subdivide;
@@ -64,12 +68,12 @@ use serde::{Deserialize, Serialize};
 use crate::cloud::{Attribute, Cloud, Column, Source};
 use crate::error::{Error, Result};
 use crate::io::mesh::{Mesh, read_mesh};
-use features::{FeatureOptions, Model, analyse, analyse_with};
+use features::{FeatureOptions, Model, analyse, analyse_marked, analyse_with};
 use geom::{V3, derive, mat_vec, random_rotation};
 pub use parts::Part;
 pub use scanner::{Pattern, ScanPattern};
 pub use truth::{
-    GroundTruth, TruthCorner, TruthDensity, TruthEdge, TruthFace, TruthLines, TruthPolyline,
+    GroundTruth, TruthCorner, TruthDensity, TruthEdge, TruthFace, TruthFillet, TruthLines, TruthPolyline,
     TruthSensor, TruthSurface,
 };
 
@@ -349,7 +353,7 @@ pub fn generate(params: &SynthParams) -> Result<Scan> {
     match &params.part {
         Part::Mesh(path) => {
             let mesh = read_mesh(path)?;
-            scan_mesh(params, mesh, false)
+            scan_mesh(params, mesh, Origin::File)
         }
         Part::Sphere if !params.scan.is_default() => Err(bad(
             "pattern",
@@ -357,10 +361,14 @@ pub fn generate(params: &SynthParams) -> Result<Scan> {
             "the sphere is sampled by its own uniform lattice only; scan a sphere mesh with --mesh for other patterns",
         )),
         Part::Sphere => scan_sphere(params),
+        Part::Random => {
+            let part = random::build(params.seed)?;
+            scan_mesh(params, part.mesh.clone(), Origin::Random(&part))
+        }
         part => {
             let mesh = parts::polyhedron(part, params.sides, params.angle, params.steps)
                 .ok_or_else(|| bad("part", part.name(), "not a polyhedral part"))?;
-            scan_mesh(params, mesh, true)
+            scan_mesh(params, mesh, Origin::Parametric)
         }
     }
 }
@@ -392,7 +400,18 @@ pub fn generate_from_mesh(params: &SynthParams, mesh: Mesh) -> Result<Scan> {
             why: "a vertex has a non-finite coordinate".into(),
         });
     }
-    scan_mesh(&p, mesh, false)
+    scan_mesh(&p, mesh, Origin::File)
+}
+
+/// Where a mesh to scan comes from: it decides the size and which edges are sharp.
+#[derive(Clone, Copy)]
+enum Origin<'a> {
+    /// A parametric part: every non-coplanar edge is sharp.
+    Parametric,
+    /// A mesh file: `sharp_angle` decides, curved patches may be subdivided.
+    File,
+    /// A random part: its own sharp edges, fillets and chart borders.
+    Random(&'a random::RandomPart),
 }
 
 const TAG_ROTATION: u64 = 0x0207_0A7E;
@@ -476,7 +495,8 @@ struct Prepared {
 
 /// Scales and centres the mesh, finds its sharp edges, corners and charts, and smooths
 /// faceted curved patches by subdivision when asked to.
-fn prepare_part(p: &SynthParams, mut mesh: Mesh, parametric: bool) -> Result<Prepared> {
+fn prepare_part(p: &SynthParams, mut mesh: Mesh, origin: Origin) -> Result<Prepared> {
+    let parametric = !matches!(origin, Origin::File);
     let size = if parametric {
         Some(p.size.unwrap_or(100.0))
     } else {
@@ -503,7 +523,21 @@ fn prepare_part(p: &SynthParams, mut mesh: Mesh, parametric: bool) -> Result<Pre
             chart_distance: 1e-4 * extent,
         }
     };
-    let mut model = analyse(mesh, &opts);
+    let mut model = match origin {
+        // A fillet's facets are sampled like a curved mesh's patches (one grid per 15°); its
+        // tangent lines end the flat faces' charts, so those stay exact planes.
+        Origin::Random(part) => analyse_marked(
+            mesh,
+            &FeatureOptions {
+                chart_angle: 15f64.to_radians(),
+                chart_distance: f64::INFINITY,
+                ..opts
+            },
+            Some(&part.creases),
+            Some(&part.breaks),
+        ),
+        _ => analyse(mesh, &opts),
+    };
     if !parametric && p.subdivide > 0 && curved(&model, opts.chart_angle) {
         let creases: std::collections::HashSet<(u32, u32)> =
             model.sharp_index.keys().copied().collect();
@@ -859,8 +893,8 @@ fn scanner_truth(gt: &mut GroundTruth, s: &sample::Settings) {
 
 /// Simulates the scan of a mesh part: prepare the part, lay out the scanner, choose the
 /// spacing, round the edges, sample with the pattern, and write down the truth.
-fn scan_mesh(p: &SynthParams, mesh: Mesh, parametric: bool) -> Result<Scan> {
-    let part = prepare_part(p, mesh, parametric)?;
+fn scan_mesh(p: &SynthParams, mesh: Mesh, origin: Origin) -> Result<Scan> {
+    let part = prepare_part(p, mesh, origin)?;
     let model = &part.model;
     let rot = rotation(p);
     let frame = scanner::Frame {
@@ -892,8 +926,51 @@ fn scan_mesh(p: &SynthParams, mesh: Mesh, parametric: bool) -> Result<Scan> {
     };
     let (positions, truth) = sample_pattern(p, &part, &fillets, &settings)?;
     let mut gt = ground_truth(p, &part, &fillets, &settings, world_vertices);
+    if let Origin::Random(random_part) = origin {
+        gt.fillets = truth_fillets(model, random_part, part.model_scale, h, world);
+        gt.random = Some(random_part.draw.clone());
+    }
     gt_counts(&mut gt, &truth);
     Ok(finish_scan(p, gt, positions, truth, double))
+}
+
+/// The ground truth of a random part's fillets: their charts (those of the facets between
+/// their inner arc vertices) and tangent lines.
+fn truth_fillets(
+    model: &Model,
+    part: &random::RandomPart,
+    model_scale: f64,
+    h: f64,
+    world: impl Fn(V3) -> V3,
+) -> Vec<TruthFillet> {
+    part.fillets
+        .iter()
+        .enumerate()
+        .map(|(id, f)| {
+            let mut faces: Vec<usize> = (1..f.bottom.len().saturating_sub(1))
+                .filter_map(|k| {
+                    let (a, b) = (f.bottom[k], f.top[k]);
+                    model.edge_tris.get(&(a.min(b), a.max(b)))
+                })
+                .flatten()
+                .map(|&t| model.tri_chart[t as usize] as usize)
+                .collect();
+            faces.sort_unstable();
+            faces.dedup();
+            let line =
+                |k: usize| [f.bottom[k], f.top[k]].map(|v| world(model.mesh.vertices[v as usize]));
+            let last = f.bottom.len().saturating_sub(1);
+            let radius = f.radius * model_scale;
+            TruthFillet {
+                id,
+                radius,
+                radius_h: radius / h,
+                angle_deg: f.angle_deg,
+                faces,
+                tangent_lines: [line(0), line(last)],
+            }
+        })
+        .collect()
 }
 
 fn gt_counts(gt: &mut GroundTruth, truth: &[PointTruth]) {

@@ -111,6 +111,23 @@ pub struct TruthDensity {
     pub hi: f64,
 }
 
+/// A wide fillet (a random part's rounded vertical edge): no sharp edge. A correct tool finds
+/// no edge along it and moves none of its points; its points and those within the away
+/// margin of its tangent lines do not count as "away from edges" (bench).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TruthFillet {
+    pub id: usize,
+    /// Radius in model units and in spacings.
+    pub radius: f64,
+    pub radius_h: f64,
+    /// Interior angle of the edge it rounds off (degrees; 90 for a box's edge).
+    pub angle_deg: f64,
+    /// The faces (charts) of its curved surface: `PointTruth::face` of its points.
+    pub faces: Vec<usize>,
+    /// The two lines where it meets the flat faces (world coordinates, bottom to top).
+    pub tangent_lines: [[V3; 2]; 2],
+}
+
 /// The exact surface of the sharp (unrounded) part, in world coordinates.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
@@ -137,7 +154,8 @@ struct Indexes {
 pub struct GroundTruth {
     /// Identifies the JSON layout.
     pub format: String,
-    /// Part name: box, lblock, step, wedge, prism, pyramid, sphere, or the mesh file's name.
+    /// Part name: box, lblock, step, wedge, prism, pyramid, sphere, random, or the mesh file's
+    /// name.
     pub part: String,
     pub params: SynthParams,
     /// Sampling pitch actually used (model units = world units).
@@ -168,6 +186,12 @@ pub struct GroundTruth {
     /// The density gradient.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub density: Option<TruthDensity>,
+    /// Wide fillets (random parts): smooth, not sharp edges.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub fillets: Vec<TruthFillet>,
+    /// What the random part's generator drew (random parts only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub random: Option<super::random::RandomDraw>,
     #[serde(skip)]
     index: OnceLock<Indexes>,
 }
@@ -212,6 +236,8 @@ impl PartialEq for GroundTruth {
             && self.sensors == o.sensors
             && self.lines == o.lines
             && self.density == o.density
+            && self.fillets == o.fillets
+            && self.random == o.random
     }
 }
 
@@ -267,6 +293,8 @@ impl GroundTruth {
             sensors: Vec::new(),
             lines: None,
             density: None,
+            fillets: Vec::new(),
+            random: None,
             index: OnceLock::new(),
         }
     }
