@@ -17,7 +17,12 @@ fn quiet_prints_nothing_on_success() {
     assert_eq!(r.stderr, "");
     assert_eq!(
         entries(&dir.path().join("out")),
-        ["features.ply", "rectified.ply", "report.json"]
+        [
+            "edges.geojson",
+            "features.ply",
+            "rectified.ply",
+            "report.json"
+        ]
     );
     // `--quiet` after the subcommand works too (a global option).
     let r = sharpedge(dir.path(), &["run", "pipeline.toml", "--quiet"]);
@@ -50,6 +55,7 @@ fn summary_goes_to_stderr_with_counts_timings_and_outputs() {
         format!("failed fits {}", c["failed_fits"]),
         "wrote out/rectified.ply\n".into(),
         "wrote out/features.ply\n".into(),
+        "wrote out/edges.geojson\n".into(),
         "wrote out/report.json\n".into(),
     ] {
         assert!(e.contains(&part), "summary lacks `{part}`:\n{e}");
@@ -71,9 +77,9 @@ fn summary_goes_to_stderr_with_counts_timings_and_outputs() {
     ] {
         assert!(time.contains(&format!("{stage} ")), "{time}");
     }
-    // Without -v, no log lines: the summary is the whole output (6 lines + 3 outputs).
+    // Without -v, no log lines: the summary is the whole output (4 lines + 4 outputs).
     assert!(!e.contains("INFO"), "{e}");
-    assert_eq!(e.lines().count(), 7, "{e}");
+    assert_eq!(e.lines().count(), 8, "{e}");
 }
 
 #[test]
@@ -139,7 +145,12 @@ fn input_and_out_override_the_config() {
     assert!(!d.join("from_config").exists());
     assert_eq!(
         entries(&d.join("from_cli")),
-        ["features.ply", "rectified.ply", "report.json"]
+        [
+            "edges.geojson",
+            "features.ply",
+            "rectified.ply",
+            "report.json"
+        ]
     );
     let rep = report(&d.join("from_cli"));
     assert_eq!(rep["input"]["path"], "other.ply");
@@ -190,7 +201,12 @@ fn relative_paths_in_the_config_follow_the_config_folder() {
     );
     assert_eq!(
         entries(&job.join("results")),
-        ["features.ply", "rectified.ply", "report.json"]
+        [
+            "edges.geojson",
+            "features.ply",
+            "rectified.ply",
+            "report.json"
+        ]
     );
     assert!(!root.join("results").exists());
     // From an unrelated folder with an absolute config path; the default output folder `out`
@@ -205,7 +221,12 @@ fn relative_paths_in_the_config_follow_the_config_folder() {
     .assert_ok();
     assert_eq!(
         entries(&job.join("out")),
-        ["features.ply", "rectified.ply", "report.json"]
+        [
+            "edges.geojson",
+            "features.ply",
+            "rectified.ply",
+            "report.json"
+        ]
     );
     assert_eq!(entries(&elsewhere), Vec::<String>::new());
     // Command-line paths, by contrast, are relative to the working directory.
@@ -225,7 +246,12 @@ fn relative_paths_in_the_config_follow_the_config_folder() {
     .assert_ok();
     assert_eq!(
         entries(&elsewhere.join("here")),
-        ["features.ply", "rectified.ply", "report.json"]
+        [
+            "edges.geojson",
+            "features.ply",
+            "rectified.ply",
+            "report.json"
+        ]
     );
     let same = |p: &Path| std::fs::read(p.join("rectified.ply")).unwrap();
     assert_eq!(same(&elsewhere.join("here")), same(&job.join("out")));

@@ -66,7 +66,12 @@ fn output_contract_on_a_synth_box() {
     let out = d.join("out");
     assert_eq!(
         entries(&out),
-        ["features.ply", "rectified.ply", "report.json"]
+        [
+            "edges.geojson",
+            "features.ply",
+            "rectified.ply",
+            "report.json"
+        ]
     );
     let rep = report(&out);
 

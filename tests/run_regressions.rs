@@ -133,7 +133,12 @@ fn no_partial_output_when_a_later_output_cannot_be_placed() {
     assert_eq!(r.code, Some(1), "{r:#?}");
     assert_eq!(
         entries(&out),
-        ["features.ply", "rectified.ply", "report.json"]
+        [
+            "edges.geojson",
+            "features.ply",
+            "rectified.ply",
+            "report.json"
+        ]
     );
     assert_eq!(std::fs::read(out.join("rectified.ply")).unwrap(), before);
 }
