@@ -23,11 +23,17 @@ fn check(args: &[&str]) -> Option<String> {
     let stderr = String::from_utf8_lossy(&out.stderr);
     if out.status.code() == Some(3) {
         let required = std::env::var("SHARPEDGE_REQUIRE_LIDAR_TOOLS").is_ok_and(|v| v == "1");
-        assert!(!required, "laspy/ogrinfo required but not installed: {stdout}{stderr}");
+        assert!(
+            !required,
+            "laspy/ogrinfo required but not installed: {stdout}{stderr}"
+        );
         println!("{}", stdout.trim());
         return None;
     }
-    assert!(out.status.success(), "check_lidar.sh {args:?} failed:\n{stdout}\n{stderr}");
+    assert!(
+        out.status.success(),
+        "check_lidar.sh {args:?} failed:\n{stdout}\n{stderr}"
+    );
     Some(stdout)
 }
 
@@ -52,7 +58,9 @@ fn real_lidar_outputs_read_back_with_laspy_and_ogrinfo() {
     ] {
         assert!(out.contains(&format!("ok   {name}: ")), "{name}: {out}");
     }
-    let Some(selftest) = check(&["--self-test"]) else { return };
+    let Some(selftest) = check(&["--self-test"]) else {
+        return;
+    };
     print!("{selftest}");
     assert!(selftest.contains("self-test passed"), "{selftest}");
     assert_eq!(selftest.matches(": caught (").count(), 5, "{selftest}");

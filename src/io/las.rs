@@ -159,7 +159,8 @@ impl Columns {
 pub struct Lidar {
     pub(super) path: PathBuf,
     pub(super) header: las::Header,
-    /// Every EVLR of the file (the las crate's header holds only the first).
+    /// Every EVLR of the file when the records are kept (the las crate's header holds only
+    /// the first, which is all this holds otherwise).
     pub(super) evlrs: Vec<las::Vlr>,
     /// The point records as stored (decompressed), `record_len` bytes each; empty when not
     /// kept.
@@ -346,7 +347,13 @@ pub(crate) fn read_lidar(path: &Path, keep_records: bool) -> Result<(Loaded, Lid
         name: a.name.clone(),
         ty: a.values.ply_type().to_string(),
     }));
-    let evlrs = read_evlrs(path)?;
+    // Every EVLR only for writing them back; otherwise the crate's first one (a WKT CRS in
+    // an EVLR is the first) is enough, and a damaged later one does not stop a PLY run.
+    let evlrs = if keep_records {
+        read_evlrs(path)?
+    } else {
+        header.evlrs().clone()
+    };
     let lidar = Lidar {
         path: path.to_path_buf(),
         header,
