@@ -388,15 +388,7 @@ fn flat_plane_succeeds_with_no_edges_and_nothing_moved() {
     write_raw_ply(&c.path().join("plane.ply"), &plane);
     let r = c.run("plane.ply", &["-q"]);
     r.assert_ok();
-    assert_eq!(
-        entries(&c.out()),
-        [
-            "edges.geojson",
-            "features.ply",
-            "rectified.ply",
-            "report.json"
-        ]
-    );
+    assert_eq!(entries(&c.out()), PLY_OUTPUTS);
     let rep = report(&c.out());
     assert_eq!(rep["counts"]["points"], plane.len());
     assert_eq!(rep["counts"]["edges"], 0);

@@ -243,6 +243,17 @@ fn run_to(c: &Case, input: &str, out: &str, extra: &[&str]) -> Run {
     sharpedge(c.path(), &args)
 }
 
+fn geojson(out: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(out.join("edges.geojson")).unwrap()).unwrap()
+}
+
+/// A run that must be refused before any work: exit 1, the message `parts`, no `out` folder.
+fn refused(c: &Case, input: &str, out: &str, extra: &[&str], parts: &[&str]) {
+    let r = run_to(c, input, out, extra);
+    assert_failed_cleanly(&r, parts, &c.path().join(out));
+    assert!(!c.path().join(out).exists(), "{out} left behind");
+}
+
 fn extra_bytes_vlr(h: &las::Header) -> Vec<(u8, String)> {
     let v = h
         .vlrs()
@@ -328,9 +339,7 @@ fn las14_format7_with_extra_bytes_crs_and_evlrs_round_trips() {
     );
     // edges.geojson: every edge and corner, in the WKT's CRS (its EPSG authority).
     let rep = report(&c.out());
-    let g: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(c.out().join("edges.geojson")).unwrap())
-            .unwrap();
+    let g = geojson(&c.out());
     assert_eq!(g["type"], "FeatureCollection");
     assert_eq!(g["crs"]["properties"]["name"], "urn:ogc:def:crs:EPSG::2903");
     let edges = rep["edges"].as_array().unwrap();
@@ -399,9 +408,7 @@ fn las12_format1_with_geotiff_round_trips_and_classifies_edges() {
             .zip(OURS.map(String::from))
             .collect::<Vec<_>>()
     );
-    let g: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(c.out().join("edges.geojson")).unwrap())
-            .unwrap();
+    let g = geojson(&c.out());
     assert_eq!(
         g["crs"]["properties"]["name"],
         "urn:ogc:def:crs:EPSG::32611"
@@ -417,17 +424,17 @@ fn las12_format1_with_geotiff_round_trips_and_classifies_edges() {
         c.path(),
         "[output]\nclassify_edges = true\nedge_class = 64\n",
     );
-    let r = run_to(&c, "scan.las", "big", &[]);
-    assert_failed_cleanly(
-        &r,
+    refused(
+        &c,
+        "scan.las",
+        "big",
+        &[],
         &[
             "output.edge_class",
             "class 64 does not fit point format 1",
             "0..=31",
         ],
-        &c.path().join("big"),
     );
-    assert!(!c.path().join("big").exists());
 }
 
 #[test]
@@ -444,44 +451,35 @@ fn format_option_chooses_ply_for_las_and_refuses_las_for_ply() {
         Vec::new(),
     );
     c.run("scan.las", &["-q", "--format", "ply"]).assert_ok();
-    assert_eq!(
-        entries(&c.out()),
-        [
-            "edges.geojson",
-            "features.ply",
-            "rectified.ply",
-            "report.json"
-        ]
-    );
+    assert_eq!(entries(&c.out()), PLY_OUTPUTS);
     let rect = read_cloud(&c.out().join("rectified.ply"));
     assert_eq!(rect.len(), pts.len());
     assert_eq!(column(&rect, "intensity")[5], (5 * 37) as f64);
     // No CRS in the input: the GeoJSON says so instead of implying WGS84.
-    let g: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(c.out().join("edges.geojson")).unwrap())
-            .unwrap();
+    let g = geojson(&c.out());
     assert_eq!(g["crs"]["properties"]["name"], sharpedge::io::NO_CRS);
     // A PLY input has no LAS header to write back.
-    let r = run_to(&c, "box.ply", "las_out", &["--format", "las"]);
-    assert_failed_cleanly(
-        &r,
+    refused(
+        &c,
+        "box.ply",
+        "las_out",
+        &["--format", "las"],
         &[
             "output.format",
             "box.ply",
             "a LAS or LAZ output is written from a LAS or LAZ input",
         ],
-        &c.path().join("las_out"),
     );
-    assert!(!c.path().join("las_out").exists());
     // And from the pipeline file, with its line.
     config(c.path(), "[output]\nformat = \"las3\"\n");
-    let r = run_to(&c, "scan.las", "bad", &[]);
-    assert_failed_cleanly(
-        &r,
+    refused(
+        &c,
+        "scan.las",
+        "bad",
+        &[],
         &[
             "pipeline.toml:2: output.format: must be one of \"auto\", \"ply\", \"las\", \"laz\", got \"las3\"",
         ],
-        &c.path().join("bad"),
     );
     let mut f = std::fs::File::open(c.path().join("scan.las")).unwrap();
     let mut sig = [0u8; 4];
