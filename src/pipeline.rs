@@ -2,8 +2,8 @@
 //!
 //! Input: validated `Settings` (input path and output folder already resolved). Output: the
 //! files of the output contract (rectified.ply or .las/.laz, features.ply, edges.geojson,
-//! report.json in the output folder) and a `Summary` for the one-screen report. Each stage is a plain function of the
-//! library; this module only calls them in order and times them.
+//! report.json in the output folder) and a `Summary` for the one-screen report. Each stage
+//! is a plain function of the library; this module only calls them in order and times them.
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;

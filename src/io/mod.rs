@@ -68,9 +68,11 @@ impl CloudFormat {
             CloudFormat::Auto if is_las => Ok(CloudFormat::Las),
             CloudFormat::Auto => Ok(CloudFormat::Ply),
             CloudFormat::Las | CloudFormat::Laz if !is_las => Err(Error::Usage {
-                option: "output.format".into(),
+                option: "output.format (--format)".into(),
                 message: format!(
-                    "{}: a LAS or LAZ output is written from a LAS or LAZ input (its header,                      CRS and point records are written back); this input is no LAS/LAZ file.                      Use \"ply\" or \"auto\"",
+                    "{}: a LAS or LAZ output is written from a LAS or LAZ input (its header, \
+                     CRS and point records are written back); this input is no LAS/LAZ file. \
+                     Use \"ply\" or \"auto\"",
                     input.display()
                 ),
             }),
