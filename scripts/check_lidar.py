@@ -59,6 +59,20 @@ def wkt_of(header):
     return None
 
 
+def geotiff_epsg(header):
+    """The EPSG code of the GeoTIFF keys (projected, else geographic), or None."""
+    for v in header.vlrs:
+        if v.user_id == "LASF_Projection" and v.record_id == 34735:
+            words = np.frombuffer(bytes(v.record_data_bytes()), dtype="<u2")
+            keys = {int(words[4 + 4 * k]): words[4 + 4 * k: 8 + 4 * k]
+                    for k in range(int(words[3]))}
+            for key in (3072, 2048):
+                e = keys.get(key)
+                if e is not None and e[1] == 0 and e[3] not in (0, 32767):
+                    return int(e[3])
+    return None
+
+
 def compare_las(inp, out):
     """Returns a summary line; raises Failure on the first difference."""
     a = laspy.read(inp)
@@ -128,7 +142,7 @@ def compare_las(inp, out):
             f"{n_moved} moved, {len(dims_a) - 3} attributes equal, unmoved X/Y/Z identical")
 
 
-def ogr_check(geojson, report, wkt):
+def ogr_check(geojson, report, wkt, epsg=None):
     r = subprocess.run(["ogrinfo", "-ro", "-al", "-so", geojson], capture_output=True, text=True)
     check(r.returncode == 0, f"ogrinfo failed: {r.stderr.strip()}")
     m = re.search(r"Feature Count: (\d+)", r.stdout)
@@ -139,7 +153,10 @@ def ogr_check(geojson, report, wkt):
     srs = r.stdout.split("Layer SRS WKT:", 1)[-1].split("\nData axis", 1)[0].strip()
     top = re.match(r'^\w+\["([^"]*)"', srs)
     check(top is not None, f"ogrinfo reports no layer CRS: {srs[:200]}")
-    if wkt is None:
+    if wkt is None and epsg is not None:
+        check(f'ID["EPSG",{epsg}]' in srs, f"ogrinfo's CRS is not EPSG:{epsg}: {srs[:200]}")
+        crs = f"EPSG:{epsg} (GeoTIFF keys)"
+    elif wkt is None:
         check(re.match(r"^(ENGCRS|LOCAL_CS)\[", srs) is not None,
               f"an input without CRS must give a local (engineering) CRS, not {top.group(1)}")
         crs = "local (no CRS in the input)"
@@ -170,7 +187,8 @@ def run_one(sharpedge, config, inp, work):
 def check_file(sharpedge, config, inp, work):
     rect, report, header, out = run_one(sharpedge, config, inp, work)
     las = compare_las(inp, rect)
-    ogr = ogr_check(os.path.join(out, "edges.geojson"), report, wkt_of(header))
+    ogr = ogr_check(os.path.join(out, "edges.geojson"), report, wkt_of(header),
+                    geotiff_epsg(header))
     return f"{las}; {ogr}"
 
 
