@@ -48,6 +48,10 @@ pub struct RunArgs {
     /// Worker threads; overrides `threads` of the config (0 = all cores).
     #[arg(long)]
     pub threads: Option<usize>,
+    /// File format of the rectified cloud; overrides `output.format` of the config (auto:
+    /// LAS/LAZ as the input, COPC as LAZ, PLY otherwise).
+    #[arg(long, value_parser = ["auto", "ply", "las", "laz"])]
+    pub format: Option<String>,
 }
 
 #[derive(Debug, Args)]
@@ -294,6 +298,15 @@ fn run(cli: &Cli, a: &RunArgs) -> anyhow::Result<()> {
             .into());
         }
         settings.threads = t;
+    }
+    if let Some(f) = &a.format {
+        use sharpedge::io::CloudFormat;
+        settings.output.format = match f.as_str() {
+            "ply" => CloudFormat::Ply,
+            "las" => CloudFormat::Las,
+            "laz" => CloudFormat::Laz,
+            _ => CloudFormat::Auto,
+        };
     }
     let summary = sharpedge::pipeline::run(&settings)?;
     if !cli.quiet {

@@ -17,6 +17,7 @@ pub mod features;
 pub mod fit;
 pub mod io;
 pub mod json;
+pub mod lidar_out;
 pub mod neighbours;
 pub mod pipeline;
 pub mod polyline;
