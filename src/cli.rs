@@ -265,6 +265,16 @@ pub struct BenchArgs {
     /// ../shared/data); the mesh cases are skipped when it is absent.
     #[arg(long)]
     pub data: Option<PathBuf>,
+    /// Instead of the simulated suite: real RGB-D frames of boxes on a table (PLY with a
+    /// per-point object `label`, e.g. ../shared/data/rgbd/box.ply), comma-separated. Each
+    /// gets reference edges from planes fitted to its labelled faces, and the run's edges are
+    /// scored against them (coverage per edge, as one edge, and precision).
+    #[arg(long, value_delimiter = ',')]
+    pub frames: Option<Vec<PathBuf>>,
+    /// With --frames: draw each frame with its reference (green) and found (red) edges as
+    /// FOLDER/<frame>.svg.
+    #[arg(long, requires = "frames")]
+    pub figures: Option<PathBuf>,
 }
 
 /// Runs the parsed command.
@@ -565,6 +575,27 @@ fn bench(_cli: &Cli, a: &BenchArgs) -> anyhow::Result<()> {
     };
     tempfile::NamedTempFile::new_in(dir)
         .map_err(|e| sharpedge::Error::io(dir, "cannot write into the folder of --out", e))?;
+    if let Some(frames) = &a.frames {
+        use sharpedge::bench::frames;
+        let results = frames::run_frames(
+            frames,
+            &settings,
+            frames::DEFAULT_TOLERANCE,
+            a.figures.as_deref(),
+        )?;
+        let text = sharpedge::json::pretty(&results)? + "\n";
+        sharpedge::io::write_atomic(&a.out, |w| {
+            w.write_all(text.as_bytes())
+                .map_err(|e| sharpedge::Error::io(&a.out, "cannot write bench results", e))
+        })?;
+        if a.json {
+            print!("{text}");
+        } else {
+            print!("{}", frames::table(&results));
+            println!("wrote {}", a.out.display());
+        }
+        return Ok(());
+    }
     let report = sharpedge::bench::run(&sharpedge::bench::BenchOptions {
         cases: a.cases.clone(),
         points: a.points,

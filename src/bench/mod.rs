@@ -23,6 +23,7 @@
 //! A case that fails to generate or to run is reported with its error, not fatal: the bench
 //! is an instrument, one broken case must not hide the others.
 
+pub mod frames;
 pub mod oracle;
 pub mod random;
 pub mod score;
