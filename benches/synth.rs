@@ -47,6 +47,7 @@ fn generator(c: &mut Criterion) {
                     face: 0,
                     abnormal: false,
                     outlier: false,
+                    view: u32::MAX,
                 })
                 .collect();
             black_box((pos, truth))

@@ -26,7 +26,7 @@ pub enum Command {
     /// Run the pipeline described by a pipeline.toml.
     Run(RunArgs),
     /// Simulate a scan of a part with known edges and corners (ground truth as JSON).
-    Synth(SynthArgs),
+    Synth(Box<SynthArgs>),
     /// Describe a point cloud file: format, point count, properties, bounding box, spacing.
     Info(InfoArgs),
     /// Reproduce the paper's experiments (§4) on generated data.
@@ -48,11 +48,19 @@ pub struct RunArgs {
     /// Worker threads; overrides `threads` of the config (0 = all cores).
     #[arg(long)]
     pub threads: Option<usize>,
+    /// File format of the rectified cloud; overrides `output.format` of the config (auto:
+    /// LAS/LAZ as the input, COPC as LAZ, PLY otherwise).
+    #[arg(long, value_parser = ["auto", "ply", "las", "laz"])]
+    pub format: Option<String>,
 }
 
 #[derive(Debug, Args)]
 pub struct SynthArgs {
-    /// Parametric part: box, lblock, step, wedge, prism, pyramid, sphere.
+    /// Parametric part: box, lblock, step, wedge, prism, pyramid, sphere, or random: a part
+    /// drawn from --seed (an extrusion of a random polygon with convex and concave vertical
+    /// edges opening 20°-160°, sometimes tapered walls, chamfers, wide fillets (5-45 spacings,
+    /// smooth: in the truth as fillets, not sharp edges), a stacked block, through-holes; the
+    /// distribution is in the module comment of src/synth/random.rs and the README).
     #[arg(long, default_value = "box", conflicts_with = "mesh")]
     pub part: String,
     /// Sample this triangle mesh (OFF, PLY or OBJ) instead of a parametric part.
@@ -126,8 +134,47 @@ pub struct SynthArgs {
     /// stand for; 0 samples the facets as they are (0..4).
     #[arg(long, default_value_t = 2)]
     pub subdivide: u32,
-    /// Also write each point's truth (scalar_abnormal, scalar_outlier, scalar_edge_distance)
-    /// into the PLY, for inspection.
+    /// Sampling pattern: uniform (a jittered grid on every face, the default), lines (parallel
+    /// scan lines: cuts by planes --line-gap spacings apart, sampled every spacing along
+    /// them), grid (structured light: a sensor casts a pixel grid of rays, the first hits are
+    /// the points; pitch grows with incidence, noise lies along the ray), view (the uniform
+    /// grid kept where a sensor sees it: faces turned away and hidden parts are missing).
+    #[arg(long, default_value = "uniform")]
+    pub pattern: String,
+    /// For --pattern lines: gap between the lines in along-line spacings (1..100).
+    #[arg(long, default_value_t = 3.0)]
+    pub line_gap: f64,
+    /// For --pattern lines: normal of the cut planes X,Y,Z (world; default drawn from --seed).
+    #[arg(long, allow_hyphen_values = true)]
+    pub line_direction: Option<String>,
+    /// For --pattern grid|view: a sensor position X,Y,Z (world), once per view; default:
+    /// drawn from --seed at 4 bounding radii from the part's centre.
+    #[arg(long, allow_hyphen_values = true)]
+    pub sensor: Vec<String>,
+    /// For --pattern grid|view: number of overlapping views (1..16). View v samples with pitch
+    /// spacing·2^(v/(views-1)), and every view after the first is misregistered.
+    #[arg(long)]
+    pub views: Option<usize>,
+    /// Largest displacement of a view by its misregistration (a small random rigid motion per
+    /// view, from --seed), in spacings.
+    #[arg(long, default_value_t = 0.2)]
+    pub misregistration: f64,
+    /// Density ratio between the two ends of the part (1: uniform density); the density falls
+    /// smoothly (exponentially) along --density-direction. Any pattern.
+    #[arg(long, default_value_t = 1.0)]
+    pub density_ratio: f64,
+    /// Direction X,Y,Z (world) in which the density falls (default drawn from --seed).
+    #[arg(long, allow_hyphen_values = true)]
+    pub density_direction: Option<String>,
+    /// Noise grows with the incidence angle θ at the sensor: sigma / cos θ, capped at
+    /// --incidence-cap times sigma. Any pattern (without views: from one sensor).
+    #[arg(long)]
+    pub incidence_noise: bool,
+    /// Largest noise factor of --incidence-noise (1..100).
+    #[arg(long, default_value_t = 4.0)]
+    pub incidence_cap: f64,
+    /// Also write each point's truth (scalar_abnormal, scalar_outlier, scalar_edge_distance,
+    /// and scalar_view for scans with views) into the PLY, for inspection.
     #[arg(long)]
     pub truth_fields: bool,
     /// Output cloud (PLY).
@@ -185,9 +232,16 @@ pub struct ExperimentArgs {
 
 #[derive(Debug, Args)]
 pub struct BenchArgs {
-    /// Points per case (the 30k box keeps 30,000).
+    /// Points per case (the 30k box keeps 30,000); with --random, the cap of the drawn point
+    /// counts (30,000 up to this).
     #[arg(long, default_value_t = sharpedge::bench::DEFAULT_POINTS)]
     pub points: usize,
+    /// Run N random parts under random scan settings instead of the suite: the parts and the
+    /// settings (points log-uniform from 30,000 to --points, noise 0..0.3 h, edge rounding
+    /// 0..2 h, a random rotation) are drawn from --seed; each case prints its own seed and the
+    /// `sharpedge synth` command that makes its scan alone, and a summary row aggregates them.
+    #[arg(long, value_name = "N", conflicts_with = "cases")]
+    pub random: Option<usize>,
     /// Cases to run, comma-separated (default: all): box, lblock, step, wedge, prism6,
     /// prism8, pyramid, sphere, box-noise0.5, box-noise1.0, box-30k, box-far, fandisk, anchor.
     #[arg(long, value_delimiter = ',')]
@@ -211,6 +265,16 @@ pub struct BenchArgs {
     /// ../shared/data); the mesh cases are skipped when it is absent.
     #[arg(long)]
     pub data: Option<PathBuf>,
+    /// Instead of the simulated suite: real RGB-D frames of boxes on a table (PLY with a
+    /// per-point object `label`, e.g. ../shared/data/rgbd/box.ply), comma-separated. Each
+    /// gets reference edges from planes fitted to its labelled faces, and the run's edges are
+    /// scored against them (coverage per edge, as one edge, and precision).
+    #[arg(long, value_delimiter = ',')]
+    pub frames: Option<Vec<PathBuf>>,
+    /// With --frames: draw each frame with its reference (green) and found (red) edges as
+    /// FOLDER/<frame>.svg.
+    #[arg(long, requires = "frames")]
+    pub figures: Option<PathBuf>,
 }
 
 /// Runs the parsed command.
@@ -244,6 +308,15 @@ fn run(cli: &Cli, a: &RunArgs) -> anyhow::Result<()> {
             .into());
         }
         settings.threads = t;
+    }
+    if let Some(f) = &a.format {
+        use sharpedge::io::CloudFormat;
+        settings.output.format = match f.as_str() {
+            "ply" => CloudFormat::Ply,
+            "las" => CloudFormat::Las,
+            "laz" => CloudFormat::Laz,
+            _ => CloudFormat::Auto,
+        };
     }
     let summary = sharpedge::pipeline::run(&settings)?;
     if !cli.quiet {
@@ -301,10 +374,47 @@ fn synth(cli: &Cli, a: &SynthArgs) -> anyhow::Result<()> {
         (Some(n), None) => Sampling::Points(n),
         (None, None) => Sampling::Points(100_000),
     };
-    let translate = match a.translate.as_deref() {
-        None => [0.0; 3],
-        Some([x, y, z]) => [*x, *y, *z],
-        Some(v) => anyhow::bail!("--translate takes three numbers X,Y,Z, got {}", v.len()),
+    let triple = |name: &str, v: Option<&[f64]>| -> anyhow::Result<Option<[f64; 3]>> {
+        match v {
+            None => Ok(None),
+            Some([x, y, z]) => Ok(Some([*x, *y, *z])),
+            Some(v) => anyhow::bail!("--{name} takes three numbers X,Y,Z, got {}", v.len()),
+        }
+    };
+    let translate = triple("translate", a.translate.as_deref())?.unwrap_or([0.0; 3]);
+    // "X,Y,Z" as one value, so a leading minus is not taken for an option.
+    let point = |name: &str, s: &str| -> anyhow::Result<[f64; 3]> {
+        let v: Vec<f64> = s
+            .split(',')
+            .map(|c| c.trim().parse::<f64>())
+            .collect::<Result<_, _>>()
+            .map_err(|e| anyhow::anyhow!("--{name} {s:?}: {e}"))?;
+        triple(name, Some(&v)).map(|t| t.unwrap_or([0.0; 3]))
+    };
+    let sensors = a
+        .sensor
+        .iter()
+        .map(|s| point("sensor", s))
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    let scan = sharpedge::synth::ScanPattern {
+        pattern: a.pattern.parse()?,
+        line_gap: a.line_gap,
+        line_direction: a
+            .line_direction
+            .as_deref()
+            .map(|s| point("line-direction", s))
+            .transpose()?,
+        views: a.views.unwrap_or(sensors.len().max(1)),
+        sensors,
+        misregistration: a.misregistration,
+        density_ratio: a.density_ratio,
+        density_direction: a
+            .density_direction
+            .as_deref()
+            .map(|s| point("density-direction", s))
+            .transpose()?,
+        incidence_noise: a.incidence_noise,
+        incidence_cap: a.incidence_cap,
     };
     let params = SynthParams {
         part,
@@ -325,6 +435,7 @@ fn synth(cli: &Cli, a: &SynthArgs) -> anyhow::Result<()> {
         sharp_angle: a.sharp_angle,
         subdivide: a.subdivide,
         jitter: a.jitter,
+        scan,
     };
     let scan = sharpedge::synth::generate(&params)?;
     let truth_path = a
@@ -464,6 +575,27 @@ fn bench(_cli: &Cli, a: &BenchArgs) -> anyhow::Result<()> {
     };
     tempfile::NamedTempFile::new_in(dir)
         .map_err(|e| sharpedge::Error::io(dir, "cannot write into the folder of --out", e))?;
+    if let Some(frames) = &a.frames {
+        use sharpedge::bench::frames;
+        let results = frames::run_frames(
+            frames,
+            &settings,
+            frames::DEFAULT_TOLERANCE,
+            a.figures.as_deref(),
+        )?;
+        let text = sharpedge::json::pretty(&results)? + "\n";
+        sharpedge::io::write_atomic(&a.out, |w| {
+            w.write_all(text.as_bytes())
+                .map_err(|e| sharpedge::Error::io(&a.out, "cannot write bench results", e))
+        })?;
+        if a.json {
+            print!("{text}");
+        } else {
+            print!("{}", frames::table(&results));
+            println!("wrote {}", a.out.display());
+        }
+        return Ok(());
+    }
     let report = sharpedge::bench::run(&sharpedge::bench::BenchOptions {
         cases: a.cases.clone(),
         points: a.points,
@@ -471,6 +603,7 @@ fn bench(_cli: &Cli, a: &BenchArgs) -> anyhow::Result<()> {
         threads: settings.threads,
         config: a.config.clone(),
         data: a.data.clone().or_else(sharpedge::bench::default_data_dir),
+        random: a.random,
         settings,
     })?;
     let text = sharpedge::json::pretty(&report)? + "\n";

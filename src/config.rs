@@ -18,7 +18,7 @@ use toml::Spanned;
 
 use crate::error::{Error, Result};
 use crate::fit::FitParams;
-use crate::io::{NonFinite, PlyEncoding};
+use crate::io::{CloudFormat, NonFinite, PlyEncoding};
 use crate::stages::corners::CornerParams;
 use crate::stages::edges::EdgeParams;
 use crate::stages::features::FeatureParams;
@@ -128,6 +128,9 @@ struct RawOutput {
     dir: Opt<String>,
     encoding: Opt<String>,
     precision: Opt<String>,
+    format: Opt<String>,
+    classify_edges: Opt<bool>,
+    edge_class: Opt<i64>,
 }
 
 #[derive(Debug, Default, Deserialize)]
@@ -185,6 +188,13 @@ pub struct OutputSettings {
     #[serde(serialize_with = "ser_encoding")]
     pub encoding: PlyEncoding,
     pub precision: Precision,
+    /// File format of the rectified cloud (`auto`: LAS/LAZ as the input, PLY otherwise).
+    pub format: CloudFormat,
+    /// Give edge points the class `edge_class` in a LAS/LAZ output.
+    pub classify_edges: bool,
+    /// Class code of edge points when `classify_edges` (0–255; 0–31 for point formats 0–5,
+    /// checked against the input once it is read).
+    pub edge_class: u8,
 }
 
 /// Everything a run needs, validated.
@@ -216,6 +226,9 @@ impl Default for Settings {
                 dir: PathBuf::from("out"),
                 encoding: PlyEncoding::BinaryLittleEndian,
                 precision: Precision::Auto,
+                format: CloudFormat::Auto,
+                classify_edges: false,
+                edge_class: 31,
             },
             features: FeatureParams::default(),
             segment: SegmentParams::default(),
@@ -519,6 +532,38 @@ impl Checker<'_> {
                     ("double", Precision::Double),
                 ],
             )?,
+            format: self.choice(
+                &raw.output.format,
+                "output.format",
+                d.output.format,
+                &[
+                    ("auto", CloudFormat::Auto),
+                    ("ply", CloudFormat::Ply),
+                    ("las", CloudFormat::Las),
+                    ("laz", CloudFormat::Laz),
+                ],
+            )?,
+            classify_edges: raw
+                .output
+                .classify_edges
+                .as_ref()
+                .map(|v| *v.get_ref())
+                .unwrap_or(d.output.classify_edges),
+            edge_class: match &raw.output.edge_class {
+                None => d.output.edge_class,
+                Some(v) if (0..=255).contains(v.get_ref()) => *v.get_ref() as u8,
+                Some(v) => {
+                    return Err(self.err(
+                        v.span(),
+                        "output.edge_class",
+                        format!(
+                            "must be a LAS class code in [0, 255] ([0, 31] for point formats \
+                             0-5), got {}",
+                            v.get_ref()
+                        ),
+                    ));
+                }
+            },
         };
         let f = &raw.features;
         let fd = &d.features;
@@ -888,6 +933,37 @@ mod tests {
         assert!(e.contains("swarm"), "{e}");
         let e = err("[rectify]\nenabled = \"yes\"\n");
         assert!(e.starts_with("pipeline.toml:2: rectify.enabled:"), "{e}");
+    }
+
+    #[test]
+    fn output_format_and_edge_class() {
+        let s = parse_str("[output]\nformat = \"laz\"\nclassify_edges = true\nedge_class = 64\n")
+            .unwrap();
+        assert_eq!(s.output.format, CloudFormat::Laz);
+        assert!(s.output.classify_edges);
+        assert_eq!(s.output.edge_class, 64);
+        let d = parse_str("").unwrap();
+        assert_eq!(d.output.format, CloudFormat::Auto);
+        assert!(!d.output.classify_edges);
+        let e = err("[output]\n\nformat = \"copc\"\n");
+        assert_eq!(
+            e,
+            "pipeline.toml:3: output.format: must be one of \"auto\", \"ply\", \"las\", \"laz\", got \"copc\""
+        );
+        let e = err("[output]\nedge_class = 256\n");
+        assert!(
+            e.starts_with(
+                "pipeline.toml:2: output.edge_class: must be a LAS class code in [0, 255]"
+            ),
+            "{e}"
+        );
+        let e = err("[output]\nclassify_edges = 1\n");
+        assert!(
+            e.starts_with("pipeline.toml:2: output.classify_edges:"),
+            "{e}"
+        );
+        let j = serde_json::to_value(&s).unwrap();
+        assert_eq!(j["output"]["format"], "laz");
     }
 
     #[test]

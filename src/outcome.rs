@@ -175,3 +175,39 @@ pub fn describe(
         .collect();
     (edges, corners)
 }
+
+/// sharpedge's per-point fields, shared by the PLY and the LAS/LAZ output.
+pub(crate) struct PointFields {
+    /// Reported edge id, -1 for none.
+    pub edge_id: Vec<i32>,
+    /// 1 where rectification moved the point.
+    pub moved: Vec<u8>,
+    /// Distance moved, in model units.
+    pub displacement: Vec<f32>,
+    /// The normal split: the score that separates edges from faces.
+    pub sharpness: Vec<f32>,
+}
+
+impl PointFields {
+    pub(crate) fn of(outcome: &Outcome) -> Self {
+        let cloud = &outcome.cloud;
+        PointFields {
+            edge_id: outcome
+                .edge_label
+                .iter()
+                .map(|&l| if l == u32::MAX { -1 } else { l as i32 })
+                .collect(),
+            moved: outcome.moved.iter().map(|&m| u8::from(m)).collect(),
+            displacement: cloud
+                .positions
+                .iter()
+                .zip(&outcome.rectified)
+                .map(|(a, b)| {
+                    ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
+                        as f32
+                })
+                .collect(),
+            sharpness: outcome.features.split.clone(),
+        }
+    }
+}

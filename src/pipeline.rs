@@ -1,9 +1,9 @@
 //! The fixed order of the stages, their timings, the thread pool and the seed.
 //!
 //! Input: validated `Settings` (input path and output folder already resolved). Output: the
-//! files of the output contract (rectified.ply, features.ply, report.json in the output
-//! folder) and a `Summary` for the one-screen report. Each stage is a plain function of the
-//! library; this module only calls them in order and times them.
+//! files of the output contract (rectified.ply or .las/.laz, features.ply, edges.geojson,
+//! report.json in the output folder) and a `Summary` for the one-screen report. Each stage
+//! is a plain function of the library; this module only calls them in order and times them.
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -96,15 +96,21 @@ fn run_into(settings: &Settings, input: PathBuf, out_dir: &Path) -> Result<Summa
         })?;
     pool.install(|| {
         let mut clock = Clock::new();
-        let cloud = io::read(
+        let format = settings.output.format.resolve(&input)?;
+        let (cloud, lidar) = io::read_for_output(
             &input,
             &io::ReadOptions {
                 non_finite: settings.input.non_finite,
             },
+            format,
         )?;
+        if let (Some(l), true, true) = (&lidar, format.is_lidar(), settings.output.classify_edges) {
+            io::check_edge_class(l, settings.output.edge_class)?;
+        }
         clock.lap("read");
         let outcome = process(cloud, settings, &mut clock)?;
-        let outputs = report::write_all(&outcome, settings, out_dir, &clock.timings)?;
+        let outputs =
+            report::write_all(&outcome, lidar.as_ref(), settings, out_dir, &clock.timings)?;
         clock.lap("write");
         Ok(Summary {
             input,

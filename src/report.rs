@@ -1,8 +1,11 @@
-//! The output contract: rectified.ply, features.ply and report.json.
+//! The output contract: rectified.ply (or .las/.laz), features.ply, edges.geojson and
+//! report.json.
 //!
 //! Input: the pipeline's `Outcome` (cloud, per-point side arrays, fitted edges and corners),
-//! the settings and the stage timings. Output: three files in the output folder, written into
-//! a staging folder there and moved into place together, so a failed run leaves none of them.
+//! the LAS/LAZ input's header and records when there is one, the settings and the stage
+//! timings. Output: four files in the output folder, written into a staging folder there and
+//! moved into place together, so a failed run leaves none of them. The LAS/LAZ cloud and the
+//! GeoJSON are made in `lidar_out.rs`.
 //!
 //! Field names are chosen for the viewers our users have: CloudCompare's command line loads a
 //! custom vertex property only if its name contains `scalar`, MeshLab reads `quality` and
@@ -17,7 +20,7 @@ use crate::cloud::{Attribute, Column};
 use crate::config::{Precision, Settings};
 use crate::error::{Error, Result};
 use crate::io::{self, PlyWriteOptions};
-use crate::outcome::{CornerOut, EdgeOut, Outcome, Timing};
+use crate::outcome::{CornerOut, EdgeOut, Outcome, PointFields, Timing};
 
 #[derive(Serialize)]
 struct Report<'a> {
@@ -51,7 +54,6 @@ struct Counts {
     failed_fits: usize,
 }
 
-/// Writes the three output files; returns their paths.
 /// An I/O error on a file in the staging folder, reported against the output the user asked
 /// for (`out/rectified.ply`, not `out/.sharpedge-run-XXXX/rectified.ply`).
 fn at_destination(e: Error, staging: &Path, to: &Path) -> Error {
@@ -69,8 +71,11 @@ fn at_destination(e: Error, staging: &Path, to: &Path) -> Error {
     }
 }
 
+/// Writes the four output files; `lidar` is the LAS/LAZ input (with its point records when
+/// the rectified cloud is LAS/LAZ). Returns their paths.
 pub fn write_all(
     outcome: &Outcome,
+    lidar: Option<&io::Lidar>,
     settings: &Settings,
     dir: &Path,
     timings: &[Timing],
@@ -84,11 +89,18 @@ pub fn write_all(
         encoding: settings.output.encoding,
         precision,
     };
-    // Each file is atomic on its own, but the three are one result: a run that fails on the
-    // second must not leave the first beside an older second. So all three are written into a
+    // Each file is atomic on its own, but the four are one result: a run that fails on the
+    // second must not leave the first beside an older second. So all are written into a
     // staging folder inside `dir` (same file system: renames are atomic) and moved into place
     // only when all exist, after checking that nothing can stop the renames.
-    let names = ["rectified.ply", "features.ply", "report.json"];
+    let format = settings.output.format.resolve(&outcome.cloud.source.path)?;
+    let rectified_name = format!("rectified.{}", format.extension());
+    let names = [
+        rectified_name.as_str(),
+        "features.ply",
+        "edges.geojson",
+        "report.json",
+    ];
     for name in names {
         let to = dir.join(name);
         if std::fs::symlink_metadata(&to).is_ok_and(|m| m.is_dir()) {
@@ -118,9 +130,32 @@ pub fn write_all(
         let st = staging_dir.clone();
         move |e| at_destination(e, &st, &to)
     };
-    write_rectified(&staged[0], outcome, &opts).map_err(named(0))?;
+    match (format.is_lidar(), lidar) {
+        (true, Some(l)) => crate::lidar_out::write_rectified(
+            &staged[0],
+            outcome,
+            l,
+            &io::LasWriteOptions {
+                compressed: format == io::CloudFormat::Laz,
+                edge_class: settings
+                    .output
+                    .classify_edges
+                    .then_some(settings.output.edge_class),
+            },
+        ),
+        (true, None) => Err(Error::BadOutput {
+            path: dir.join(&rectified_name),
+            what: "a LAS/LAZ output is written from the LAS/LAZ input's records, which were \
+                   not given"
+                .into(),
+        }),
+        (false, _) => write_rectified(&staged[0], outcome, &opts),
+    }
+    .map_err(named(0))?;
     write_features(&staged[1], outcome, &opts).map_err(named(1))?;
-    write_report(&staged[2], outcome, settings, timings).map_err(named(2))?;
+    crate::lidar_out::write_edges(&staged[2], outcome, lidar.and_then(io::Lidar::crs).as_ref())
+        .map_err(named(2))?;
+    write_report(&staged[3], outcome, settings, timings).map_err(named(3))?;
     let mut placed: Vec<PathBuf> = Vec::new();
     for (from, name) in staged.iter().zip(names) {
         let to = dir.join(name);
@@ -210,38 +245,27 @@ fn carried_names(attributes: &[Attribute]) -> Vec<String> {
 fn write_rectified(path: &Path, outcome: &Outcome, opts: &PlyWriteOptions) -> Result<()> {
     let cloud = &outcome.cloud;
     let n = cloud.len();
-    let f = &outcome.features;
     let label = &outcome.edge_label;
-    let moved: Vec<u8> = outcome.moved.iter().map(|&m| u8::from(m)).collect();
-    let displacement: Vec<f32> = (0..n)
-        .map(|i| {
-            let (a, b) = (cloud.positions[i], outcome.rectified[i]);
-            ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt() as f32
-        })
-        .collect();
-    let edge_id: Vec<i32> = label
-        .iter()
-        .map(|&l| if l == u32::MAX { -1 } else { l as i32 })
-        .collect();
+    let fields = PointFields::of(outcome);
     let (mut red, mut green, mut blue) = (vec![0u8; n], vec![0u8; n], vec![0u8; n]);
     for i in 0..n {
         let c = colour(label[i]);
         (red[i], green[i], blue[i]) = (c[0], c[1], c[2]);
     }
-    // The normal split is the score that separates edges from faces; MeshLab shows quality.
-    let sharp: Vec<f32> = f.split.clone();
+    // MeshLab shows quality: the sharpness again.
+    let sharp = fields.sharpness;
     let own = [
         Attribute {
             name: "scalar_edge_id".into(),
-            values: Column::I32(edge_id),
+            values: Column::I32(fields.edge_id),
         },
         Attribute {
             name: "scalar_moved".into(),
-            values: Column::U8(moved),
+            values: Column::U8(fields.moved),
         },
         Attribute {
             name: "scalar_displacement".into(),
-            values: Column::F32(displacement),
+            values: Column::F32(fields.displacement),
         },
         Attribute {
             name: "scalar_sharpness".into(),

@@ -414,3 +414,130 @@ fn issue4_cad_models_pass_every_threshold() {
         );
     }
 }
+
+/// `bench --random 3`: three random parts under drawn scan settings; the JSON carries each
+/// case's seed, draw and reproduce command, the summary aggregates them, and the printed
+/// command makes exactly the case's scan.
+#[test]
+fn three_random_parts_report_their_draws_a_summary_and_reproduce_alone() {
+    let dir = tempfile::tempdir().unwrap();
+    let (ok, out, err) = bench(
+        &[
+            "--random",
+            "3",
+            "--points",
+            "30000",
+            "--seed",
+            "2",
+            "--threads",
+            "2",
+            "--out",
+            "r.json",
+        ],
+        dir.path(),
+    );
+    assert!(ok, "{err}");
+    assert!(
+        out.contains("bench: 3 random parts, 30000..30000 points, seed 2"),
+        "{out}"
+    );
+    assert!(
+        out.contains("summary over 3 random cases (3 scored)"),
+        "{out}"
+    );
+    let j = read_json(&dir.path().join("r.json"));
+    let cases = j["cases"].as_array().unwrap();
+    assert_eq!(cases.len(), 3);
+    let mut seeds = Vec::new();
+    for (i, c) in cases.iter().enumerate() {
+        assert_eq!(c["name"], format!("r{i:03}"));
+        assert_eq!(c["kind"], "random");
+        assert!(c["error"].is_null(), "{}", c["error"]);
+        assert_eq!(c["params"]["part"], "random");
+        assert_eq!(c["params"]["sampling"]["points"], 30000);
+        let noise = f(&c["params"]["noise"]);
+        let round = f(&c["params"]["round"]);
+        assert!((0.0..=0.3).contains(&noise) && (0.0..=2.0).contains(&round));
+        assert_eq!(c["params"]["rotate"], true);
+        let part = &c["part"];
+        assert!((4..=9).contains(&part["sides"].as_u64().unwrap()), "{part}");
+        // Every part has corners and edges to find; the whole part is seen.
+        assert!(c["corners"]["true"].as_u64().unwrap() >= 8);
+        assert_eq!(f(&c["edges"]["unseen_length_h"]), 0.0);
+        let names: Vec<&str> = c["checks"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|k| k["name"].as_str().unwrap())
+            .collect();
+        for want in [
+            "corner recall",
+            "corner precision",
+            "edge recall",
+            "edge precision",
+            "median corner error / oracle",
+            "points away from edges moved",
+        ] {
+            assert!(names.contains(&want), "{names:?}");
+        }
+        let cmd = c["reproduce"].as_str().unwrap();
+        let seed = c["params"]["seed"].as_u64().unwrap();
+        assert!(
+            cmd.starts_with(&format!("sharpedge synth --part random --seed {seed} ")),
+            "{cmd}"
+        );
+        assert!(out.contains(&format!("seed {seed:>20}:")), "{out}");
+        if c["pass"] == false {
+            assert!(out.contains(&format!("reproduce: {cmd}")), "{out}");
+        }
+        seeds.push(seed);
+    }
+    seeds.dedup();
+    assert_eq!(seeds.len(), 3);
+    let s = &j["summary"];
+    assert_eq!(s["cases"], 3);
+    assert_eq!(s["scored"], 3);
+    assert_eq!(s["passed"], j["passed"]);
+    for k in [
+        "corner_recall",
+        "corner_precision",
+        "edge_recall",
+        "edge_precision",
+    ] {
+        share_or_null(&s[k]);
+    }
+    // The summary's corner recall is matched / true over all cases.
+    let (m, t): (u64, u64) = cases.iter().fold((0, 0), |(m, t), c| {
+        (
+            m + c["corners"]["matched"].as_u64().unwrap(),
+            t + c["corners"]["true"].as_u64().unwrap(),
+        )
+    });
+    assert!((f(&s["corner_recall"]) - m as f64 / t as f64).abs() < 1e-12);
+
+    // The first case alone, through `synth`: the same number of points.
+    let cmd = cases[0]["reproduce"].as_str().unwrap();
+    let args: Vec<&str> = cmd.split(' ').skip(1).collect();
+    let made = Command::new(env!("CARGO_BIN_EXE_sharpedge"))
+        .args(&args)
+        .current_dir(dir.path())
+        .output()
+        .unwrap();
+    assert!(
+        made.status.success(),
+        "{}",
+        String::from_utf8_lossy(&made.stderr)
+    );
+    let truth = read_json(&dir.path().join("case.truth.json"));
+    assert_eq!(truth["points"], cases[0]["points"]);
+    assert_eq!(truth["part"], "random");
+    assert_eq!(truth["random"], cases[0]["part"]);
+}
+
+#[test]
+fn random_and_cases_do_not_go_together() {
+    let dir = tempfile::tempdir().unwrap();
+    let (ok, _, err) = bench(&["--random", "2", "--cases", "box"], dir.path());
+    assert!(!ok);
+    assert!(err.contains("--random") && err.contains("--cases"), "{err}");
+}

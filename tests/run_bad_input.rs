@@ -138,6 +138,78 @@ fn header_promises_more_vertices_than_the_body_holds() {
     );
 }
 
+/// A LAS 1.2 point format 3 file of the synthetic box (a cloud every stage accepts).
+fn box_las(c: &Case, name: &str) -> PathBuf {
+    let cloud = read_cloud(&synth(c.path(), "box.ply", BOX));
+    let mut b = las::Builder::from((1, 2));
+    b.point_format = las::point::Format::new(3).unwrap();
+    let path = c.path().join(name);
+    let mut w = las::Writer::from_path(&path, b.into_header().unwrap()).unwrap();
+    for p in &cloud.positions {
+        w.write_point(las::Point {
+            x: p[0],
+            y: p[1],
+            z: p[2],
+            gps_time: Some(1.0),
+            color: Some(las::Color::default()),
+            ..Default::default()
+        })
+        .unwrap();
+    }
+    w.close().unwrap();
+    path
+}
+
+/// A LAS header that lies (about its point count, its record length, where its points start)
+/// stops the run with the file and the problem named; no output, not even a partial
+/// rectified.las. The same file with an honest header runs.
+#[test]
+fn las_header_that_lies() {
+    let c = Case::new();
+    let good = box_las(&c, "good.las");
+    run_las(&c, "good.las", "ok").assert_ok();
+    assert!(c.path().join("ok/rectified.las").is_file());
+    let bytes = std::fs::read(&good).unwrap();
+    let n = u32::from_le_bytes(bytes[107..111].try_into().unwrap());
+    let patched = |name: &str, at: usize, value: &[u8]| {
+        let mut b = bytes.clone();
+        b[at..at + value.len()].copy_from_slice(value);
+        std::fs::write(c.path().join(name), b).unwrap();
+    };
+    // LAS 1.2 header: point count at byte 107, record length at 105, offset to points at 96.
+    patched("count.las", 107, &(n + 1000).to_le_bytes());
+    let r = run_las(&c, "count.las", "out_count");
+    assert_failed_cleanly(
+        &r,
+        &["count.las", "declares more points than it holds"],
+        &c.path().join("out_count"),
+    );
+    patched("reclen.las", 105, &20u16.to_le_bytes());
+    let r = run_las(&c, "reclen.las", "out_reclen");
+    assert_failed_cleanly(
+        &r,
+        &["reclen.las: header: the point data record length 20 is too small"],
+        &c.path().join("out_reclen"),
+    );
+    patched("offset.las", 96, &(bytes.len() as u32 + 10).to_le_bytes());
+    let r = run_las(&c, "offset.las", "out_offset");
+    assert_failed_cleanly(
+        &r,
+        &["offset.las: points 0..", "the point data ends early"],
+        &c.path().join("out_offset"),
+    );
+    for out in ["out_count", "out_reclen", "out_offset"] {
+        assert!(!c.path().join(out).exists(), "{out} left behind");
+    }
+}
+
+fn run_las(c: &Case, input: &str, out: &str) -> Run {
+    sharpedge(
+        c.path(),
+        &["-q", "run", "pipeline.toml", "--input", input, "--out", out],
+    )
+}
+
 #[test]
 fn unknown_ply_type() {
     let c = Case::new();
@@ -316,10 +388,7 @@ fn flat_plane_succeeds_with_no_edges_and_nothing_moved() {
     write_raw_ply(&c.path().join("plane.ply"), &plane);
     let r = c.run("plane.ply", &["-q"]);
     r.assert_ok();
-    assert_eq!(
-        entries(&c.out()),
-        ["features.ply", "rectified.ply", "report.json"]
-    );
+    assert_eq!(entries(&c.out()), PLY_OUTPUTS);
     let rep = report(&c.out());
     assert_eq!(rep["counts"]["points"], plane.len());
     assert_eq!(rep["counts"]["edges"], 0);

@@ -15,10 +15,7 @@ fn quiet_prints_nothing_on_success() {
     r.assert_ok();
     assert_eq!(r.stdout, "");
     assert_eq!(r.stderr, "");
-    assert_eq!(
-        entries(&dir.path().join("out")),
-        ["features.ply", "rectified.ply", "report.json"]
-    );
+    assert_eq!(entries(&dir.path().join("out")), PLY_OUTPUTS);
     // `--quiet` after the subcommand works too (a global option).
     let r = sharpedge(dir.path(), &["run", "pipeline.toml", "--quiet"]);
     r.assert_ok();
@@ -50,6 +47,7 @@ fn summary_goes_to_stderr_with_counts_timings_and_outputs() {
         format!("failed fits {}", c["failed_fits"]),
         "wrote out/rectified.ply\n".into(),
         "wrote out/features.ply\n".into(),
+        "wrote out/edges.geojson\n".into(),
         "wrote out/report.json\n".into(),
     ] {
         assert!(e.contains(&part), "summary lacks `{part}`:\n{e}");
@@ -71,9 +69,9 @@ fn summary_goes_to_stderr_with_counts_timings_and_outputs() {
     ] {
         assert!(time.contains(&format!("{stage} ")), "{time}");
     }
-    // Without -v, no log lines: the summary is the whole output (6 lines + 3 outputs).
+    // Without -v, no log lines: the summary is the whole output (4 lines + 4 outputs).
     assert!(!e.contains("INFO"), "{e}");
-    assert_eq!(e.lines().count(), 7, "{e}");
+    assert_eq!(e.lines().count(), 8, "{e}");
 }
 
 #[test]
@@ -137,10 +135,7 @@ fn input_and_out_override_the_config() {
     );
     r.assert_ok();
     assert!(!d.join("from_config").exists());
-    assert_eq!(
-        entries(&d.join("from_cli")),
-        ["features.ply", "rectified.ply", "report.json"]
-    );
+    assert_eq!(entries(&d.join("from_cli")), PLY_OUTPUTS);
     let rep = report(&d.join("from_cli"));
     assert_eq!(rep["input"]["path"], "other.ply");
     assert_eq!(rep["config"]["input"]["path"], "other.ply");
@@ -188,10 +183,7 @@ fn relative_paths_in_the_config_follow_the_config_folder() {
         "{}",
         r.stderr
     );
-    assert_eq!(
-        entries(&job.join("results")),
-        ["features.ply", "rectified.ply", "report.json"]
-    );
+    assert_eq!(entries(&job.join("results")), PLY_OUTPUTS);
     assert!(!root.join("results").exists());
     // From an unrelated folder with an absolute config path; the default output folder `out`
     // is next to the config too.
@@ -203,10 +195,7 @@ fn relative_paths_in_the_config_follow_the_config_folder() {
         &["-q", "run", job.join("pipeline.toml").to_str().unwrap()],
     )
     .assert_ok();
-    assert_eq!(
-        entries(&job.join("out")),
-        ["features.ply", "rectified.ply", "report.json"]
-    );
+    assert_eq!(entries(&job.join("out")), PLY_OUTPUTS);
     assert_eq!(entries(&elsewhere), Vec::<String>::new());
     // Command-line paths, by contrast, are relative to the working directory.
     std::fs::copy(job.join("scan.ply"), elsewhere.join("local.ply")).unwrap();
@@ -223,10 +212,7 @@ fn relative_paths_in_the_config_follow_the_config_folder() {
         ],
     )
     .assert_ok();
-    assert_eq!(
-        entries(&elsewhere.join("here")),
-        ["features.ply", "rectified.ply", "report.json"]
-    );
+    assert_eq!(entries(&elsewhere.join("here")), PLY_OUTPUTS);
     let same = |p: &Path| std::fs::read(p.join("rectified.ply")).unwrap();
     assert_eq!(same(&elsewhere.join("here")), same(&job.join("out")));
 }

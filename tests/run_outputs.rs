@@ -64,10 +64,7 @@ fn output_contract_on_a_synth_box() {
     let r = sharpedge(d, &["-q", "run", "pipeline.toml"]);
     r.assert_ok();
     let out = d.join("out");
-    assert_eq!(
-        entries(&out),
-        ["features.ply", "rectified.ply", "report.json"]
-    );
+    assert_eq!(entries(&out), PLY_OUTPUTS);
     let rep = report(&out);
 
     // ---- rectified.ply: header types ----

@@ -131,10 +131,7 @@ fn no_partial_output_when_a_later_output_cannot_be_placed() {
     config(c.path(), "seed = 99\n[input]\npath = \"scan.ply\"\n");
     let r = sharpedge(c.path(), &args);
     assert_eq!(r.code, Some(1), "{r:#?}");
-    assert_eq!(
-        entries(&out),
-        ["features.ply", "rectified.ply", "report.json"]
-    );
+    assert_eq!(entries(&out), PLY_OUTPUTS);
     assert_eq!(std::fs::read(out.join("rectified.ply")).unwrap(), before);
 }
 

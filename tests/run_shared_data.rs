@@ -2,7 +2,7 @@
 //! ../shared/data (see SOURCES.md there): each either succeeds with the point count SOURCES.md
 //! gives, or fails with exit code 1 and one error naming the file and the problem (a 3-point
 //! file, a file with no vertex element, a mesh), leaving no output folder behind. The LAS and
-//! LAZ copies of autzen give byte-identical outputs. A file added to those folders without an
+//! LAZ copies of autzen give identical outputs (LAS in, LAS out; LAZ in, LAZ out). A file added to those folders without an
 //! entry here fails the test. Skipped (with a message) when ../shared/data is absent.
 
 mod run_common;
@@ -160,14 +160,33 @@ fn run_on_every_file_succeeds_or_fails_cleanly() {
         match expected {
             Ok(n) => {
                 assert!(r.ok(), "{name}: {r:#?}");
+                // LAS and LAZ (COPC too) come back in their own format, the rest as PLY.
+                let ext = ["las", "laz"]
+                    .into_iter()
+                    .find(|e| name.ends_with(&format!(".{e}")))
+                    .unwrap_or("ply");
+                let rectified = format!("rectified.{ext}");
                 assert_eq!(
                     entries(&out),
-                    ["features.ply", "rectified.ply", "report.json"],
+                    [
+                        "edges.geojson",
+                        "features.ply",
+                        rectified.as_str(),
+                        "report.json"
+                    ],
                     "{name}"
                 );
                 assert_eq!(report(&out)["counts"]["points"], *n, "{name}");
-                let bytes = std::fs::read(out.join("rectified.ply")).unwrap();
-                assert_eq!(parse_header(&bytes).element("vertex").count, *n, "{name}");
+                let count = if ext == "ply" {
+                    let bytes = std::fs::read(out.join(&rectified)).unwrap();
+                    parse_header(&bytes).element("vertex").count
+                } else {
+                    las::Reader::from_path(out.join(&rectified))
+                        .unwrap()
+                        .header()
+                        .number_of_points() as usize
+                };
+                assert_eq!(count, *n, "{name}");
             }
             Err(part) => {
                 assert_failed_cleanly(&r, &[&format!("{}: ", path.display()), part], &out);
@@ -175,12 +194,22 @@ fn run_on_every_file_succeeds_or_fails_cleanly() {
             }
         }
     }
-    // The LAS and LAZ copies of autzen hold the same points: the same outputs.
-    for f in ["rectified.ply", "features.ply"] {
+    // The LAS and LAZ copies of autzen hold the same points: the same outputs, the rectified
+    // clouds with the same records once decompressed.
+    for f in ["features.ply", "edges.geojson"] {
         let las = std::fs::read(w.join("r/lidar_autzen_trim.las").join(f)).unwrap();
         let laz = std::fs::read(w.join("r/lidar_autzen_trim.laz").join(f)).unwrap();
         assert!(las == laz, "{f} differs between the LAS and the LAZ input");
     }
+    let records = |p: PathBuf| {
+        let mut r = las::Reader::from_path(p).unwrap();
+        r.read_all().unwrap().raw_bytes().to_vec()
+    };
+    assert!(
+        records(w.join("r/lidar_autzen_trim.las/rectified.las"))
+            == records(w.join("r/lidar_autzen_trim.laz/rectified.laz")),
+        "the rectified LAS and LAZ hold different records"
+    );
     // The failed runs made no folder; `r` holds the successful ones only.
     let ok = EXPECTED.iter().filter(|(_, e)| e.is_ok()).count();
     assert_eq!(entries(&w.join("r")).len(), ok);

@@ -23,8 +23,11 @@
 //! A case that fails to generate or to run is reported with its error, not fatal: the bench
 //! is an instrument, one broken case must not hide the others.
 
+pub mod frames;
 pub mod oracle;
+pub mod random;
 pub mod score;
+pub mod seen;
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -41,6 +44,7 @@ use crate::progress::Progress;
 use crate::synth::geom::derive;
 use crate::synth::{self, GroundTruth, Part, PointTruth, Sampling, SynthParams};
 use score::{EdgeScore, polyline_segments, same_bits, score_edges, stats};
+use seen::Stretches;
 
 /// Points per case by default: the whole suite took 32–46 s on two shared cores when this was
 /// chosen, three quarters of it in the pipeline's features stage (200,000 points: 16 s;
@@ -82,6 +86,13 @@ pub mod limits {
     pub const RECTIFY_RATIO: f64 = 0.3;
     /// Curved meshes (fandisk, anchor): edge recall and precision.
     pub const CURVED_EDGE: f64 = 0.9;
+    /// Random parts (issue 17): corner and edge recall and precision, and the median corner
+    /// error over the oracle's.
+    pub const RANDOM_CORNER_RECALL: f64 = 0.98;
+    pub const RANDOM_CORNER_PRECISION: f64 = 0.99;
+    pub const RANDOM_EDGE_RECALL: f64 = 0.97;
+    pub const RANDOM_EDGE_PRECISION: f64 = 0.99;
+    pub const RANDOM_MEDIAN_CORNER_TO_ORACLE: f64 = 2.0;
 }
 
 /// What the thresholds expect of a case.
@@ -94,13 +105,15 @@ pub enum Kind {
     Smooth,
     /// Curved faces and curved sharp edges (CAD meshes): edges found, no oracle.
     Curved,
+    /// A random part (`--random`): issue 17's thresholds, the oracle on its flat faces.
+    Random,
 }
 
 /// One case of the suite.
 #[derive(Debug, Clone)]
 pub struct Case {
-    pub name: &'static str,
-    pub description: &'static str,
+    pub name: String,
+    pub description: String,
     pub kind: Kind,
     /// Whether the accuracy thresholds (corner error, edge RMS) apply.
     pub accuracy: bool,
@@ -276,8 +289,8 @@ pub fn suite(
             _ => unreachable!("every SUITE name has a recipe"),
         }
         cases.push(Case {
-            name,
-            description,
+            name: name.into(),
+            description: description.into(),
             kind,
             accuracy,
             params: p,
@@ -327,6 +340,8 @@ pub struct CornerMetrics {
     pub oracle_h: Option<Spread>,
     /// Our mean error / the oracle's mean error on the same true corners.
     pub ratio_to_oracle: Option<f64>,
+    /// Our median error / the oracle's median error on the same true corners.
+    pub median_ratio_to_oracle: Option<f64>,
     pub missed: Vec<LoneCorner>,
     pub spurious: Vec<LoneCorner>,
 }
@@ -347,6 +362,9 @@ pub struct EdgeMetrics {
     pub true_segments: usize,
     pub found: usize,
     pub true_length_h: f64,
+    /// True edge length not required because the scan saw one face of it or none there
+    /// (module [`seen`]); 0 when the scan sees the whole part.
+    pub unseen_length_h: f64,
     pub found_length_h: f64,
     pub recall: Option<f64>,
     pub precision: Option<f64>,
@@ -478,14 +496,20 @@ pub struct CaseResult {
     pub seconds: Seconds,
     pub checks: Vec<Check>,
     pub pass: bool,
+    /// Random cases: the command that makes this case's scan alone, and what the part
+    /// generator drew.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub reproduce: Option<String>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub part: Option<synth::random::RandomDraw>,
 }
 
 impl CaseResult {
     /// A result with the case's identity and no metrics yet.
     pub fn unscored(case: &Case) -> CaseResult {
         CaseResult {
-            name: case.name.into(),
-            description: case.description.into(),
+            name: case.name.clone(),
+            description: case.description.clone(),
             kind: case.kind,
             params: case.params.clone(),
             error: None,
@@ -511,6 +535,8 @@ impl CaseResult {
             },
             checks: Vec::new(),
             pass: false,
+            reproduce: (case.kind == Kind::Random).then(|| random::reproduce(&case.params)),
+            part: None,
         }
     }
 }
@@ -532,6 +558,9 @@ pub struct BenchReport {
     pub passed: usize,
     pub failed: usize,
     pub settings: Settings,
+    /// `--random N`: the aggregate over the N random cases.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub summary: Option<random::Summary>,
 }
 
 #[derive(Debug, Clone, Serialize)]
@@ -558,6 +587,9 @@ pub struct BenchOptions {
     pub threads: usize,
     /// The shared data folder (with `cad/`); `None` skips the mesh cases.
     pub data: Option<PathBuf>,
+    /// Run this many random parts (module [`random`]) instead of the suite; `points` is then
+    /// the cap of their drawn point counts.
+    pub random: Option<usize>,
 }
 
 /// Stage timings of one pipeline run.
@@ -585,12 +617,15 @@ pub fn run(opts: &BenchOptions) -> Result<BenchReport> {
             message: "must be at least 1".into(),
         });
     }
-    let (cases, skipped) = suite(
-        opts.cases.as_deref(),
-        opts.points,
-        opts.seed,
-        opts.data.as_deref(),
-    )?;
+    let (cases, skipped) = match opts.random {
+        Some(n) => (random::cases(n, opts.seed, opts.points), Vec::new()),
+        None => suite(
+            opts.cases.as_deref(),
+            opts.points,
+            opts.seed,
+            opts.data.as_deref(),
+        )?,
+    };
     for s in &skipped {
         tracing::warn!("skipped {}: {}", s.case, s.reason);
     }
@@ -641,6 +676,7 @@ pub fn run(opts: &BenchOptions) -> Result<BenchReport> {
         },
         failed: results.len() - passed,
         passed,
+        summary: opts.random.map(|_| random::summary(&results)),
         cases: results,
         skipped,
         seconds: start.elapsed().as_secs_f64(),
@@ -653,7 +689,18 @@ pub fn run(opts: &BenchOptions) -> Result<BenchReport> {
 pub fn run_case(case: &Case, settings: &Settings) -> CaseResult {
     let t0 = Instant::now();
     let mut result = CaseResult::unscored(case);
-    let scan = match synth::generate(&case.params) {
+    let generated = if case.kind == Kind::Random {
+        random::generate(&case.params).map(|(scan, params)| {
+            result.reproduce = Some(random::reproduce(&params));
+            result.round_h = params.round;
+            result.part = scan.ground_truth.random.clone();
+            result.params = params;
+            scan
+        })
+    } else {
+        synth::generate(&case.params)
+    };
+    let scan = match generated {
         Ok(s) => s,
         Err(e) => {
             result.error = Some(format!("synth: {e}"));
@@ -717,8 +764,8 @@ fn score_case(
     r.failures = out.failures.iter().take(5).cloned().collect();
     r.candidates = Some(candidate_metrics(&out.features.candidate, truth, h));
 
-    let oracle =
-        (case.kind == Kind::Polyhedral).then(|| oracle::fit(gt, &out.cloud.positions, truth));
+    let oracle = matches!(case.kind, Kind::Polyhedral | Kind::Random)
+        .then(|| oracle::fit(gt, &out.cloud.positions, truth));
     let true_corners: Vec<V3> = gt.corners.iter().map(|c| c.position).collect();
     r.corners = Some(corner_metrics(
         &out.corners,
@@ -727,9 +774,10 @@ fn score_case(
         h,
     ));
     let polylines: Vec<Vec<V3>> = out.edges.iter().map(|e| e.polyline.clone()).collect();
-    r.edges = Some(edge_metrics(
+    r.edges = Some(edge_metrics_on(
         &polylines,
         gt,
+        &seen::required(gt, truth, h),
         oracle.as_ref().map(|o| o.edges.as_slice()),
         h,
     ));
@@ -739,7 +787,7 @@ fn score_case(
         &out.rectified,
         &out.moved,
         truth,
-        &away_mask(truth, gt, case.params.noise, h),
+        &away_mask(truth, gt, r.params.noise, h),
         h,
         |p| gt.distance_to_surface(p),
     ));
@@ -817,6 +865,7 @@ pub fn corner_metrics(
         exact_h: Spread::of(&err(&|c| c.exact)),
         oracle_h,
         ratio_to_oracle: ratio(error_h.map(|s| s.mean), oracle_h.map(|s| s.mean)),
+        median_ratio_to_oracle: ratio(error_h.map(|s| s.median), oracle_h.map(|s| s.median)),
         missed: lone(true_corners, &positions, &|j| {
             matches.iter().any(|m| m.truth == j)
         }),
@@ -826,15 +875,27 @@ pub fn corner_metrics(
     }
 }
 
-/// Edge metrics of the found edge polylines against the true edges of `gt`; `oracle` holds
-/// the oracle's segment per true edge (polyhedral parts only).
+/// Edge metrics of the found edge polylines against the true edges of `gt`, all of them
+/// required; `oracle` holds the oracle's segment per true edge (polyhedral parts only).
 pub fn edge_metrics(
     polylines: &[Vec<V3>],
     gt: &GroundTruth,
     oracle: Option<&[Option<(V3, V3)>]>,
     h: f64,
 ) -> EdgeMetrics {
-    let true_segments: Vec<(V3, V3)> = gt.edges.iter().map(|e| (e.start, e.end)).collect();
+    edge_metrics_on(polylines, gt, &Stretches::all(gt), oracle, h)
+}
+
+/// Edge metrics against the `required` stretches of the true edges (module [`seen`]): recall
+/// over them, and found length near any other place of a true edge counts against precision.
+pub fn edge_metrics_on(
+    polylines: &[Vec<V3>],
+    gt: &GroundTruth,
+    required: &Stretches,
+    oracle: Option<&[Option<(V3, V3)>]>,
+    h: f64,
+) -> EdgeMetrics {
+    let true_segments = required.segments.clone();
     let found_segments = polyline_segments(polylines);
     let es = score_edges(
         &found_segments,
@@ -843,7 +904,13 @@ pub fn edge_metrics(
         SAMPLE_STEP * h,
     );
     let oracle_score: Option<EdgeScore> = oracle.map(|o| {
-        let segs: Vec<(V3, V3)> = o.iter().flatten().copied().collect();
+        // The oracle's line of each true edge that is required at all.
+        let mut edges = required.edge.clone();
+        edges.dedup();
+        let segs: Vec<(V3, V3)> = edges
+            .iter()
+            .filter_map(|&e| o.get(e).copied().flatten())
+            .collect();
         score_edges(&segs, &true_segments, EDGE_TOL * h, SAMPLE_STEP * h)
     });
     let rms_h = es.distance.map(|d| d.0 / h);
@@ -852,9 +919,10 @@ pub fn edge_metrics(
         .and_then(|o| o.distance.map(|d| d.0 / h));
     EdgeMetrics {
         true_polylines: gt.polylines.len(),
-        true_segments: true_segments.len(),
+        true_segments: gt.edges.len(),
         found: polylines.len(),
         true_length_h: es.true_length / h,
+        unseen_length_h: required.unseen_length / h,
         found_length_h: es.found_length / h,
         recall: es.recall(),
         precision: es.precision(),
@@ -862,11 +930,11 @@ pub fn edge_metrics(
         rms_h,
         mean_h: es.distance.map(|d| d.1 / h),
         max_h: es.distance.map(|d| d.2 / h),
-        offset_to_rounding_h: offset_to_rounding(gt, &es.samples).map(|o| o / h),
+        offset_to_rounding_h: offset_to_rounding(gt, &required.edge, &es.samples).map(|o| o / h),
         oracle_rms_h,
         oracle_recall: oracle_score.as_ref().and_then(EdgeScore::recall),
         ratio_to_oracle: ratio(rms_h, oracle_rms_h),
-        poorly_found: poorly_found(gt, &es, h),
+        poorly_found: poorly_found(gt, required, &es, h),
         spurious: spurious(polylines, &es, h),
     }
 }
@@ -874,10 +942,14 @@ pub fn edge_metrics(
 /// Weighted mean of the samples' offsets along the unit vector from each true edge towards
 /// its rounding: `−(n0 + n1)` at a convex edge, `n0 + n1` at a concave one (`n` the faces'
 /// outward normals). `None` without samples.
-fn offset_to_rounding(gt: &GroundTruth, samples: &[score::EdgeSample]) -> Option<f64> {
+fn offset_to_rounding(
+    gt: &GroundTruth,
+    edge_of: &[usize],
+    samples: &[score::EdgeSample],
+) -> Option<f64> {
     let (mut sum, mut w) = (0.0, 0.0);
     for s in samples {
-        let e = &gt.edges[s.segment];
+        let e = &gt.edges[edge_of[s.segment]];
         let b = add(e.normals[0], e.normals[1]);
         let len = norm(b);
         if len.is_nan() || len <= 1e-12 {
@@ -890,22 +962,29 @@ fn offset_to_rounding(gt: &GroundTruth, samples: &[score::EdgeSample]) -> Option
     (w > 0.0).then(|| sum / w)
 }
 
-/// True polylines whose recall is below the edge threshold.
-fn poorly_found(gt: &GroundTruth, es: &EdgeScore, h: f64) -> Vec<PoorEdge> {
+/// True polylines whose recall (over their required length) is below the edge threshold.
+fn poorly_found(gt: &GroundTruth, required: &Stretches, es: &EdgeScore, h: f64) -> Vec<PoorEdge> {
+    let whole = required.unseen_length == 0.0 && required.segments.len() == gt.edges.len();
     let mut covered = vec![0.0; gt.polylines.len()];
-    for (k, e) in gt.edges.iter().enumerate() {
-        if let Some(c) = covered.get_mut(e.polyline) {
+    let mut length = vec![0.0; gt.polylines.len()];
+    for (k, (&e, &(a, b))) in required.edge.iter().zip(&required.segments).enumerate() {
+        let p = gt.edges[e].polyline;
+        if let (Some(c), Some(l)) = (covered.get_mut(p), length.get_mut(p)) {
             *c += es.true_covered_each[k];
+            *l += dist(a, b);
         }
     }
     gt.polylines
         .iter()
-        .zip(&covered)
-        .filter(|(p, c)| p.length > 0.0 && **c / p.length < limits::EDGE_RECALL)
-        .map(|(p, c)| PoorEdge {
+        .zip(covered.iter().zip(&length))
+        // A scan that sees everything keeps the polyline's own length (the same sums as
+        // before the visibility rule).
+        .map(|(p, (c, l))| (p, *c, if whole { p.length } else { *l }))
+        .filter(|(_, c, l)| *l > 0.0 && c / l < limits::EDGE_RECALL)
+        .map(|(p, c, l)| PoorEdge {
             id: p.id,
-            length_h: p.length / h,
-            matched_share: c / p.length,
+            length_h: l / h,
+            matched_share: c / l,
         })
         .collect()
 }
@@ -969,10 +1048,26 @@ pub fn away_mask(truth: &[PointTruth], gt: &GroundTruth, noise: f64, h: f64) -> 
         .map(|e| away_limit(e.tangent_distance, noise, h))
         .collect();
     let widest = limits.iter().copied().fold(AWAY * h, f64::max);
+    // A wide fillet is no edge, but its points and those near its tangent lines are not
+    // "away" either: only beyond it.
+    let fillet_faces: std::collections::HashSet<u32> = gt
+        .fillets
+        .iter()
+        .flat_map(|f| f.faces.iter().map(|&c| c as u32))
+        .collect();
+    let fillet_limit = away_limit(0.0, noise, h);
+    let near_fillet = |t: &PointTruth| {
+        fillet_faces.contains(&t.face)
+            || gt.fillets.iter().any(|f| {
+                f.tangent_lines
+                    .iter()
+                    .any(|[a, b]| point_segment(t.surface, *a, *b).0 <= fillet_limit)
+            })
+    };
     truth
         .par_iter()
         .map(|t| {
-            if t.abnormal || t.outlier {
+            if t.abnormal || t.outlier || near_fillet(t) {
                 return false;
             }
             t.edge_distance > widest
@@ -1078,6 +1173,38 @@ pub fn checks(kind: Kind, accuracy: bool, r: &CaseResult) -> Vec<Check> {
             out.push(Check::new("edges found", Some(e.found as f64), "==", 0.0));
             out.push(Check::new("corners found", Some(c.found as f64), "==", 0.0));
         }
+        Kind::Random => {
+            out.push(Check::new(
+                "corner recall",
+                c.recall,
+                ">=",
+                limits::RANDOM_CORNER_RECALL,
+            ));
+            out.push(Check::new(
+                "corner precision",
+                c.precision,
+                ">=",
+                limits::RANDOM_CORNER_PRECISION,
+            ));
+            out.push(Check::new(
+                "edge recall",
+                e.recall,
+                ">=",
+                limits::RANDOM_EDGE_RECALL,
+            ));
+            out.push(Check::new(
+                "edge precision",
+                e.precision,
+                ">=",
+                limits::RANDOM_EDGE_PRECISION,
+            ));
+            out.push(Check::new(
+                "median corner error / oracle",
+                c.median_ratio_to_oracle,
+                "<=",
+                limits::RANDOM_MEDIAN_CORNER_TO_ORACLE,
+            ));
+        }
         Kind::Curved => {
             out.push(Check::new(
                 "edge recall",
@@ -1123,9 +1250,17 @@ pub fn table(rep: &BenchReport) -> String {
     let mut t = String::new();
     let _ = writeln!(
         t,
-        "sharpedge {} bench: {} points per case, seed {}, {} threads{}",
+        "sharpedge {} bench: {}, seed {}, {} threads{}",
         rep.sharpedge,
-        rep.points,
+        match &rep.summary {
+            Some(s) => format!(
+                "{} random parts, {}..{} points",
+                s.cases,
+                random::MIN_POINTS.min(rep.points),
+                rep.points
+            ),
+            None => format!("{} points per case", rep.points),
+        },
         rep.seed,
         rep.threads,
         rep.config
@@ -1138,6 +1273,13 @@ pub fn table(rep: &BenchReport) -> String {
         "lengths in true spacings h; corners match within {CORNER_TOL} h, edges within {EDGE_TOL} h"
     );
     let _ = writeln!(t);
+    if rep.summary.is_some() {
+        let _ = writeln!(t, "cases (part and scan drawn from each case's seed):");
+        for r in &rep.cases {
+            let _ = writeln!(t, "  {}", random::describe(r));
+        }
+        let _ = writeln!(t);
+    }
     let _ = writeln!(
         t,
         "{:<13} {:>7} {:>9} {:>6} {:>5} {:>5} {:>6} {:>5} {:>5} {:>5} {:>4}  {:>5} {:>5} {:>5}  {:>6}",
@@ -1292,10 +1434,41 @@ pub fn table(rep: &BenchReport) -> String {
             if !list.is_empty() {
                 let _ = writeln!(t, "  {:<13} {}", r.name, list.join("; "));
             }
+            if let Some(cmd) = &r.reproduce {
+                let _ = writeln!(t, "  {:<13} reproduce: {cmd}", "");
+            }
         }
     }
     for s in &rep.skipped {
         let _ = writeln!(t, "skipped {}: {}", s.case, s.reason);
+    }
+    if let Some(s) = &rep.summary {
+        let _ = writeln!(t);
+        let _ = writeln!(
+            t,
+            "summary over {} random cases ({} scored): corners recall {} precision {}; edges recall {} precision {}; median corner error / oracle {}; median rectified / raw {}; points away from edges moved {} (in {} cases); {} of {} pass ({:.0} %)",
+            s.cases,
+            s.scored,
+            opt(s.corner_recall, 0, 3),
+            opt(s.corner_precision, 0, 3),
+            opt(s.edge_recall, 0, 3),
+            opt(s.edge_precision, 0, 3),
+            opt(s.median_corner_error_to_oracle, 0, 2),
+            opt(s.median_rectify_ratio, 0, 3),
+            s.away_moved,
+            s.cases_with_away_moved,
+            s.passed,
+            s.cases,
+            100.0 * s.pass_share
+        );
+        let fails: Vec<String> = s
+            .failed_checks
+            .iter()
+            .map(|f| format!("{} {}", f.check, f.cases))
+            .collect();
+        if !fails.is_empty() {
+            let _ = writeln!(t, "cases failing each check: {}", fails.join(", "));
+        }
     }
     let _ = writeln!(t);
     let _ = writeln!(

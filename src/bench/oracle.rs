@@ -148,9 +148,21 @@ pub fn fit(gt: &GroundTruth, positions: &[V3], truth: &[PointTruth]) -> Oracle {
             members[f].push(i as u32);
         }
     }
+    // A fillet's faces are curved: no plane (its edges and corners get no oracle).
+    let curved: std::collections::HashSet<usize> = gt
+        .fillets
+        .iter()
+        .flat_map(|f| f.faces.iter().copied())
+        .collect();
     let planes: Vec<Option<Plane>> = members
         .iter()
-        .map(|ids| fit_plane(ids.iter().map(|&i| positions[i as usize])))
+        .enumerate()
+        .map(|(f, ids)| {
+            if curved.contains(&f) {
+                return None;
+            }
+            fit_plane(ids.iter().map(|&i| positions[i as usize]))
+        })
         .collect();
     let edges = gt
         .edges

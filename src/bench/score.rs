@@ -136,6 +136,24 @@ impl SegmentSet {
             .min_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)))
     }
 
+    /// Every segment within `reach` of `p`, with its distance, in id order.
+    pub fn all_within(&self, p: V3) -> Vec<(usize, f64)> {
+        let Some(list) = self.grid.get(&cell_of(p, self.cell)) else {
+            return Vec::new();
+        };
+        let mut out: Vec<(usize, f64)> = list
+            .iter()
+            .map(|&id| {
+                let (a, b) = self.segments[id as usize];
+                (id as usize, point_segment(p, a, b).0)
+            })
+            .filter(|&(_, d)| d <= self.reach)
+            .collect();
+        out.sort_unstable_by_key(|x| x.0);
+        out.dedup_by_key(|x| x.0);
+        out
+    }
+
     /// Ids of every segment that may come within `reach` of the segment `a b` (a superset:
     /// all that do, plus some that come within `1.5 · reach`), sorted.
     pub fn candidates_near_segment(&self, a: V3, b: V3) -> Vec<usize> {

@@ -46,12 +46,12 @@ fn suite_has_every_case_of_the_issue_in_order() {
     }
     let (cases, skipped) = suite(None, 1000, 1, Some(dir.path())).unwrap();
     assert!(skipped.is_empty());
-    let names: Vec<&str> = cases.iter().map(|c| c.name).collect();
+    let names: Vec<&str> = cases.iter().map(|c| c.name.as_str()).collect();
     assert_eq!(names, case_names());
     assert_eq!(names.len(), 14);
     for c in &cases {
         assert!(c.params.rotate, "{}", c.name);
-        let (noise, points) = match c.name {
+        let (noise, points) = match c.name.as_str() {
             "box-noise0.5" => (0.5, 1000),
             "box-noise1.0" => (1.0, 1000),
             "box-30k" => (0.15, 30_000),
@@ -295,6 +295,7 @@ fn truth_at(edge_distance: f64, abnormal: bool, outlier: bool) -> PointTruth {
         face: 0,
         abnormal,
         outlier,
+        view: u32::MAX,
     }
 }
 
@@ -368,6 +369,7 @@ fn scored(kind: Kind) -> CaseResult {
         true_segments: 12,
         found: 12,
         true_length_h: 100.0,
+        unseen_length_h: 0.0,
         found_length_h: 100.0,
         recall: Some(0.99),
         precision: Some(0.97),
@@ -530,6 +532,7 @@ fn away_mask_takes_every_edge_into_account_near_vertices() {
             face: 0,
             abnormal: false,
             outlier: false,
+            view: u32::MAX,
         }
     };
     let near_vertex = at(4.8 * h, 6.0 * h);
@@ -542,4 +545,111 @@ fn away_mask_takes_every_edge_into_account_near_vertices() {
     // …but it lies within the 30° edge's zone (5.6 h) plus margin.
     let mask = away_mask(&[near_vertex, far], gt, 0.15, h);
     assert_eq!(mask, vec![false, true]);
+}
+
+/// The visibility rule on a box whose three faces facing away from (1, 1, 1) were not
+/// scanned: the three edges between seen faces are required whole, the nine others (a seen
+/// face against an unseen one: a scan border; or two unseen faces) not at all, and a found
+/// edge along them counts against precision, but for the 2 h beside the required edges' ends.
+#[test]
+fn edges_with_an_unseen_face_are_not_required_and_count_against_precision() {
+    let scan = synth::generate(&SynthParams {
+        sampling: Sampling::Points(20_000),
+        ..SynthParams::default()
+    })
+    .unwrap();
+    let gt = &scan.ground_truth;
+    let h = gt.spacing;
+    // Everything seen: the edges themselves, unchanged.
+    assert_eq!(seen::required(gt, &scan.truth, h), Stretches::all(gt));
+
+    let toward = [1.0, 1.0, 1.0];
+    let seen_face = |f: u32| dot(gt.faces[f as usize].normal, toward) > 0.0;
+    let kept: Vec<PointTruth> = scan
+        .truth
+        .iter()
+        .copied()
+        .filter(|t| seen_face(t.face))
+        .collect();
+    assert!(kept.len() > 8_000 && kept.len() < 12_000, "{}", kept.len());
+    let req = seen::required(gt, &kept, h);
+    let both_seen: Vec<usize> = gt
+        .edges
+        .iter()
+        .filter(|e| e.faces.iter().all(|&f| seen_face(f as u32)))
+        .map(|e| e.id)
+        .collect();
+    assert_eq!(both_seen.len(), 3);
+    assert_eq!(req.edge, both_seen, "only the edges between seen faces");
+    for (k, &e) in req.edge.iter().enumerate() {
+        assert_eq!(req.segments[k], (gt.edges[e].start, gt.edges[e].end));
+    }
+    let total = gt.edge_length(); // 4 · (100 + 80 + 60)
+    let required: f64 = both_seen.iter().map(|&e| gt.edges[e].length).sum();
+    assert!((required - 240.0).abs() < 1e-9 && (total - 960.0).abs() < 1e-9);
+    assert!((req.unseen_length - (total - required)).abs() < 1e-9);
+
+    // A tool that reports all twelve edges, exactly.
+    let found: Vec<Vec<V3>> = gt.edges.iter().map(|e| vec![e.start, e.end]).collect();
+    let m = edge_metrics_on(&found, gt, &req, None, h);
+    assert!((m.recall.unwrap() - 1.0).abs() < 1e-12);
+    // Each far end of a required edge is a corner with two border edges: 3 · 2 · 2 h of
+    // them lie within the tolerance.
+    let want = (required + 6.0 * EDGE_TOL * h) / total;
+    assert!(
+        (m.precision.unwrap() - want).abs() < 1e-9,
+        "precision {:?}, want {want}",
+        m.precision
+    );
+    assert!((m.unseen_length_h - (total - required) / h).abs() < 1e-9);
+    // The same found edges on the whole scan: perfect.
+    let all = edge_metrics(&found, gt, None, h);
+    assert!((all.precision.unwrap() - 1.0).abs() < 1e-12);
+}
+
+/// A point on a random part's fillet, or just beside its tangent line, is not "away from
+/// edges"; one far beyond it on the flat face is.
+#[test]
+fn away_from_edges_starts_beyond_a_fillet() {
+    let seed = (0..200)
+        .find(|&s| !synth::random::build(s).unwrap().fillets.is_empty())
+        .unwrap();
+    let scan = synth::generate(&SynthParams {
+        part: Part::Random,
+        sampling: Sampling::Points(100_000),
+        seed,
+        ..SynthParams::default()
+    })
+    .unwrap();
+    let gt = &scan.ground_truth;
+    let h = gt.spacing;
+    let mask = away_mask(&scan.truth, gt, 0.0, h);
+    let f = &gt.fillets[0];
+    let on: Vec<usize> = (0..scan.truth.len())
+        .filter(|&i| f.faces.contains(&(scan.truth[i].face as usize)))
+        .collect();
+    assert!(on.len() > 50);
+    assert!(
+        on.iter().all(|&i| !mask[i]),
+        "a fillet point counted as away"
+    );
+    let limit = away_limit(0.0, 0.0, h);
+    let line_distance = |t: &PointTruth| {
+        f.tangent_lines
+            .iter()
+            .map(|[a, b]| point_segment(t.surface, *a, *b).0)
+            .fold(f64::INFINITY, f64::min)
+    };
+    let beside = (0..scan.truth.len())
+        .filter(|&i| !on.contains(&i) && line_distance(&scan.truth[i]) < 0.9 * limit)
+        .collect::<Vec<_>>();
+    assert!(!beside.is_empty());
+    assert!(beside.iter().all(|&i| !mask[i]));
+    // Far beyond the tangent lines and every edge, points are away.
+    let beyond = (0..scan.truth.len()).filter(|&i| {
+        let t = &scan.truth[i];
+        !on.contains(&i) && line_distance(t) > 2.0 * limit && t.edge_distance > 3.0 * limit
+    });
+    assert!(beyond.clone().count() > 100);
+    assert!(beyond.into_iter().all(|i| mask[i]));
 }

@@ -117,6 +117,20 @@ pub fn perpendicular_basis(d: [f64; 3]) -> ([f64; 3], [f64; 3]) {
     (e1, e2)
 }
 
+/// Two unit vectors spanning the plane perpendicular to the unit vector `n`, from the x axis
+/// unless `n` is close to it. The simulator lays its sampling grids out in this frame; the
+/// bundled samples and every simulated benchmark scan depend on its exact bits, which is why it
+/// is not replaced by [`perpendicular_basis`] or [`super::perp_basis`].
+pub fn plane_axes(n: [f64; 3]) -> ([f64; 3], [f64; 3]) {
+    let e = if n[0].abs() < 0.6 {
+        [1.0, 0.0, 0.0]
+    } else {
+        [0.0, 1.0, 0.0]
+    };
+    let u0 = super::unit(super::cross(e, n)).unwrap_or([1.0, 0.0, 0.0]);
+    (u0, super::cross(n, u0))
+}
+
 /// `(distance, t)` from `p` to the segment `a + t (b - a)`, `t` in [0, 1]; a zero-length
 /// segment is the point `a` (t = 0).
 pub fn point_segment(p: V3, a: V3, b: V3) -> (f64, f64) {

@@ -28,7 +28,7 @@ pub mod vec;
 
 pub use linalg::{perp_basis, solve2, solve3, sym_eigen};
 pub use lines::{
-    closest_between_rays, nearest_point_to_lines, pca_line, perpendicular_basis,
+    closest_between_rays, nearest_point_to_lines, pca_line, perpendicular_basis, plane_axes,
     point_line_distance, point_segment,
 };
 pub use triangles::{closest_on_triangle, point_triangle, triangle_normal};

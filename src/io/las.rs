@@ -5,10 +5,15 @@
 //! stored integers with scale and offset applied, in f64. Attributes kept, with their LAS
 //! types: intensity, return_number, number_of_returns, classification, scan_angle (degrees,
 //! f32), user_data, point_source_id, and when the point format has them gps_time, red, green,
-//! blue (u16) and nir. Extra bytes and waveform packets are not carried.
+//! blue (u16) and nir. Extra bytes and waveform packets are not carried as attributes.
+//!
+//! For a LAS/LAZ output ([`read_lidar`] with records kept) the reader keeps instead the raw
+//! point records as the file stores them (decompressed), with the header and every EVLR: the
+//! writer in `las_write.rs` copies them back, so every attribute, flag and extra byte survives
+//! bit for bit. The attribute columns are then not built: one copy of the points, not two.
 
 use std::io::BufReader;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use las::{PointData, PointDataBuilder, Reader};
 
@@ -148,7 +153,100 @@ impl Columns {
     }
 }
 
+/// A LAS/LAZ input as the writer of a LAS/LAZ output needs it: the header as read, every
+/// EVLR of the file, and (when kept) the raw point records in file order.
+#[derive(Debug, Clone)]
+pub struct Lidar {
+    pub(super) path: PathBuf,
+    pub(super) header: las::Header,
+    /// Every EVLR of the file when the records are kept (the las crate's header holds only
+    /// the first, which is all this holds otherwise).
+    pub(super) evlrs: Vec<las::Vlr>,
+    /// The point records as stored (decompressed), `record_len` bytes each; empty when not
+    /// kept.
+    pub(super) records: Vec<u8>,
+    pub(super) record_len: usize,
+}
+
+impl Lidar {
+    /// True when the input was COPC (its octree VLRs are not written back).
+    pub fn is_copc(&self) -> bool {
+        self.header.copc_info_vlr().is_some()
+    }
+
+    /// The coordinate reference system of the file, from its WKT VLR or its GeoTIFF keys.
+    pub fn crs(&self) -> Option<super::Crs> {
+        super::crs::of_vlrs(self.header.vlrs().iter().chain(&self.evlrs))
+    }
+
+    /// The point format number (0–10) of the input.
+    pub fn point_format(&self) -> u8 {
+        self.header.point_format().to_u8().unwrap_or(0)
+    }
+
+    /// True when the raw point records were kept (needed to write LAS/LAZ).
+    pub fn has_records(&self) -> bool {
+        !self.records.is_empty() || self.header.number_of_points() == 0
+    }
+
+    /// Keeps the records whose `keep` flag is set (non-finite points dropped by the reader).
+    pub(super) fn retain_mask(&mut self, keep: &[bool]) {
+        if self.records.is_empty() || self.record_len == 0 {
+            return;
+        }
+        let len = self.record_len;
+        let mut w = 0;
+        for (i, &k) in keep.iter().enumerate() {
+            if k {
+                self.records.copy_within(i * len..(i + 1) * len, w * len);
+                w += 1;
+            }
+        }
+        self.records.truncate(w * len);
+    }
+}
+
+/// Every EVLR of a LAS 1.4 file, read with the las crate's raw reader (its `Header` keeps only
+/// the first one).
+fn read_evlrs(path: &Path) -> Result<Vec<las::Vlr>> {
+    use std::io::{Seek, SeekFrom};
+    let mut f = BufReader::new(super::open(path)?);
+    let raw =
+        las::raw::Header::read_from(&mut f).map_err(|e| las_error(path, "header", true, e))?;
+    let Some(evlr) = raw.evlr else {
+        return Ok(Vec::new());
+    };
+    if evlr.number_of_evlrs == 0 {
+        return Ok(Vec::new());
+    }
+    f.seek(SeekFrom::Start(evlr.start_of_first_evlr))
+        .map_err(|e| Error::io(path, "cannot read", e))?;
+    let mut out = Vec::new();
+    for k in 0..evlr.number_of_evlrs {
+        let v = las::raw::Vlr::read_from(&mut f, true).map_err(|e| {
+            las_error(
+                path,
+                format!(
+                    "EVLR {k} of {} at byte {}",
+                    evlr.number_of_evlrs, evlr.start_of_first_evlr
+                ),
+                true,
+                e,
+            )
+        })?;
+        out.push(las::Vlr::new(v));
+    }
+    Ok(out)
+}
+
 pub(crate) fn read(path: &Path) -> Result<Loaded> {
+    read_lidar(path, false).map(|(loaded, _)| loaded)
+}
+
+/// Reads a LAS/LAZ file. With `keep_records` the raw point records are kept in the returned
+/// [`Lidar`] and the cloud carries no attribute columns (the records hold them); without,
+/// the cloud carries the attribute columns and the `Lidar` only the header and EVLRs.
+pub(crate) fn read_lidar(path: &Path, keep_records: bool) -> Result<(Loaded, Lidar)> {
     let file = super::open(path)?;
     let file_len = file.metadata().map(|m| m.len()).unwrap_or(0);
     let mut reader = Reader::new(BufReader::with_capacity(1 << 17, file))
@@ -180,7 +278,12 @@ pub(crate) fn read(path: &Path) -> Result<Loaded> {
     };
     let capacity = n.min(file_len / min_bytes) as usize;
     let mut positions: Vec<[f64; 3]> = Vec::with_capacity(capacity);
-    let mut columns = Columns::new(&format, capacity);
+    let mut columns = Columns::new(&format, if keep_records { 0 } else { capacity });
+    let record_len = usize::from(format.len());
+    let mut records: Vec<u8> = Vec::new();
+    if keep_records {
+        records.reserve(capacity.saturating_mul(record_len));
+    }
     let mut pd = PointDataBuilder::new().for_header(&header).build();
     let progress = if n >= super::PROGRESS_MIN_POINTS {
         Progress::start("read", n, "points")
@@ -207,7 +310,11 @@ pub(crate) fn read(path: &Path) -> Result<Loaded> {
             ));
         }
         positions.extend(pd.x().zip(pd.y()).zip(pd.z()).map(|((x, y), z)| [x, y, z]));
-        columns.append(&pd);
+        if keep_records {
+            records.extend_from_slice(pd.raw_bytes());
+        } else {
+            columns.append(&pd);
+        }
         done += got;
         progress.inc(got);
     }
@@ -231,12 +338,30 @@ pub(crate) fn read(path: &Path) -> Result<Loaded> {
             ty: format!("int32 * {} + {}", tr.scale, tr.offset),
         })
         .collect();
-    let attributes = columns.into_attributes();
+    let attributes = if keep_records {
+        Vec::new()
+    } else {
+        columns.into_attributes()
+    };
     properties.extend(attributes.iter().map(|a| PropertyInfo {
         name: a.name.clone(),
         ty: a.values.ply_type().to_string(),
     }));
-    Ok(Loaded {
+    // Every EVLR only for writing them back; otherwise the crate's first one (a WKT CRS in
+    // an EVLR is the first) is enough, and a damaged later one does not stop a PLY run.
+    let evlrs = if keep_records {
+        read_evlrs(path)?
+    } else {
+        header.evlrs().clone()
+    };
+    let lidar = Lidar {
+        path: path.to_path_buf(),
+        header,
+        evlrs,
+        records,
+        record_len,
+    };
+    let loaded = Loaded {
         cloud: Cloud {
             positions,
             attributes,
@@ -248,5 +373,6 @@ pub(crate) fn read(path: &Path) -> Result<Loaded> {
         },
         properties,
         other_elements: Vec::new(),
-    })
+    };
+    Ok((loaded, lidar))
 }

@@ -10,12 +10,20 @@
 //! temporary file in the destination folder is renamed into place only once complete, so a
 //! failure leaves no partial output behind.
 //!
+//! A LAS/LAZ input read for a LAS/LAZ output ([`read_for_output`]) also hands back a
+//! [`Lidar`]: its header, EVLRs and raw point records, which [`write_las`] writes back with
+//! the rectified positions and sharpedge's fields as extra bytes. Edges and corners are also
+//! written as GeoJSON ([`write_geojson`]) in the input's [`Crs`].
+//!
 //! Points with NaN or infinite coordinates are rejected (error naming the first bad point) or
 //! dropped with a warning, as the caller chooses in [`ReadOptions`].
 
 pub mod mesh;
 
+mod crs;
+mod geojson;
 mod las;
+mod las_write;
 mod ply;
 mod xyz;
 
@@ -27,7 +35,65 @@ use serde::Serialize;
 use crate::cloud::{Attribute, Cloud};
 use crate::error::{Error, Result};
 
+pub use self::las::Lidar;
+pub use crs::Crs;
+pub use geojson::{GeoFeature, Geometry, NO_CRS, write_geojson};
+pub use las_write::{ExtraField, LasWriteOptions, check_edge_class, max_class, write_las};
 pub use ply::{PlyEncoding, PlyWriteOptions, Precision, write_ply};
+
+/// File format of the rectified cloud (`output.format`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum CloudFormat {
+    /// LAS in → LAS out, LAZ (and COPC) in → LAZ out, PLY otherwise.
+    #[default]
+    Auto,
+    Ply,
+    Las,
+    Laz,
+}
+
+impl CloudFormat {
+    /// The format written for this input: `Auto` resolved by the input's extension and
+    /// header (COPC is LAZ). LAS/LAZ output needs a LAS/LAZ input (its header, CRS and point
+    /// records are what is written back).
+    pub fn resolve(self, input: &Path) -> Result<CloudFormat> {
+        let is_las = format_of(input).ok() == Some(Format::Las);
+        let is_laz = is_las
+            && input
+                .extension()
+                .is_some_and(|e| e.eq_ignore_ascii_case("laz"));
+        match self {
+            CloudFormat::Auto if is_laz => Ok(CloudFormat::Laz),
+            CloudFormat::Auto if is_las => Ok(CloudFormat::Las),
+            CloudFormat::Auto => Ok(CloudFormat::Ply),
+            CloudFormat::Las | CloudFormat::Laz if !is_las => Err(Error::Usage {
+                option: "output.format (--format)".into(),
+                message: format!(
+                    "{}: a LAS or LAZ output is written from a LAS or LAZ input (its header, \
+                     CRS and point records are written back); this input is no LAS/LAZ file. \
+                     Use \"ply\" or \"auto\"",
+                    input.display()
+                ),
+            }),
+            f => Ok(f),
+        }
+    }
+
+    /// The extension of the rectified cloud (`ply`, `las`, `laz`; `Auto` unresolved: `ply`).
+    pub fn extension(self) -> &'static str {
+        match self {
+            CloudFormat::Las => "las",
+            CloudFormat::Laz => "laz",
+            CloudFormat::Ply | CloudFormat::Auto => "ply",
+        }
+    }
+
+    /// True for LAS and LAZ.
+    pub fn is_lidar(self) -> bool {
+        matches!(self, CloudFormat::Las | CloudFormat::Laz)
+    }
+}
 
 /// What to do with points whose coordinates are NaN or infinite.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
@@ -126,6 +192,29 @@ pub fn read(path: &Path, opts: &ReadOptions) -> Result<Cloud> {
         path.display()
     );
     Ok(cloud)
+}
+
+/// Reads a cloud for a run whose rectified cloud is written as `output` (resolved). A LAS/LAZ
+/// input also gives its [`Lidar`] (header, EVLRs, CRS); for a LAS/LAZ output it holds the raw
+/// point records, and the cloud then carries no attribute columns (the records hold them: one
+/// copy of the points in memory, not two).
+pub fn read_for_output(
+    path: &Path,
+    opts: &ReadOptions,
+    output: CloudFormat,
+) -> Result<(Cloud, Option<Lidar>)> {
+    if format_of(path)? != Format::Las {
+        return Ok((read(path, opts)?, None));
+    }
+    let _span = tracing::debug_span!("read", path = %path.display()).entered();
+    let (loaded, mut lidar) = las::read_lidar(path, output.is_lidar())?;
+    let mut cloud = loaded.cloud;
+    let keep: Vec<bool> = cloud.positions.iter().map(is_finite_point).collect();
+    apply_non_finite(&mut cloud, opts.non_finite)?;
+    if cloud.len() != keep.len() {
+        lidar.retain_mask(&keep);
+    }
+    Ok((cloud, Some(lidar)))
 }
 
 fn is_finite_point(p: &[f64; 3]) -> bool {
@@ -337,6 +426,18 @@ pub fn describe(path: &Path) -> Result<FileInfo> {
 /// The guarantee is about failures of this process (errors, panics): the data is not
 /// fsync'ed, so a power loss right after the rename can still lose it.
 pub fn write_atomic(path: &Path, f: impl FnOnce(&mut dyn Write) -> Result<()>) -> Result<()> {
+    let tmp = temp_beside(path)?;
+    {
+        let mut w = std::io::BufWriter::with_capacity(1 << 20, tmp.as_file());
+        f(&mut w)?;
+        w.flush()
+            .map_err(|e| Error::io(path, "cannot write (disk full?)", e))?;
+    }
+    persist(tmp, path)
+}
+
+/// A temporary file in the folder of `path`, readable like any output (0644).
+fn temp_beside(path: &Path) -> Result<tempfile::NamedTempFile> {
     let dir = match path.parent() {
         Some(p) if !p.as_os_str().is_empty() => p,
         _ => Path::new("."),
@@ -350,19 +451,17 @@ pub fn write_atomic(path: &Path, f: impl FnOnce(&mut dyn Write) -> Result<()>) -
         use std::os::unix::fs::PermissionsExt;
         builder.permissions(std::fs::Permissions::from_mode(0o644));
     }
-    let tmp = builder.tempfile_in(dir).map_err(|e| {
+    builder.tempfile_in(dir).map_err(|e| {
         Error::io(
             path,
             "cannot create a temporary file in the output folder (does it exist, is it writable?)",
             e,
         )
-    })?;
-    {
-        let mut w = std::io::BufWriter::with_capacity(1 << 20, tmp.as_file());
-        f(&mut w)?;
-        w.flush()
-            .map_err(|e| Error::io(path, "cannot write (disk full?)", e))?;
-    }
+    })
+}
+
+/// Renames a finished temporary file onto `path`.
+fn persist(tmp: tempfile::NamedTempFile, path: &Path) -> Result<()> {
     tmp.persist(path).map_err(|e| {
         Error::io(
             path,
@@ -371,6 +470,19 @@ pub fn write_atomic(path: &Path, f: impl FnOnce(&mut dyn Write) -> Result<()>) -
         )
     })?;
     Ok(())
+}
+
+/// Like [`write_atomic`], for writers that need a seekable file (the las writer rewrites the
+/// header at the end): `f` gets the open temporary file, renamed onto `path` only when `f`
+/// succeeds. `f` flushes what it buffers.
+pub fn write_atomic_file(path: &Path, f: impl FnOnce(std::fs::File) -> Result<()>) -> Result<()> {
+    let tmp = temp_beside(path)?;
+    let file = tmp
+        .as_file()
+        .try_clone()
+        .map_err(|e| Error::io(path, "cannot write", e))?;
+    f(file)?;
+    persist(tmp, path)
 }
 
 /// The distance between `v` and the next f32 towards infinity: the finest step f32 can store

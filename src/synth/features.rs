@@ -138,6 +138,18 @@ pub fn analyse_with(
     opt: &FeatureOptions,
     creases: Option<&HashSet<(u32, u32)>>,
 ) -> Model {
+    analyse_marked(mesh, opt, creases, None)
+}
+
+/// Like [`analyse_with`]; besides, the manifold edges in `breaks` that are not sharp still end
+/// the charts on their two sides (a wide fillet's tangent lines: the flat face next to it
+/// stays one exact plane, the fillet gets charts of its own).
+pub fn analyse_marked(
+    mesh: Mesh,
+    opt: &FeatureOptions,
+    creases: Option<&HashSet<(u32, u32)>>,
+    breaks: Option<&HashSet<(u32, u32)>>,
+) -> Model {
     let nt = mesh.triangles.len();
     let verts = &mesh.vertices;
     let tri_pts = |t: usize| mesh.triangles[t].map(|i| verts[i as usize]);
@@ -217,8 +229,10 @@ pub fn analyse_with(
             None => theta > opt.sharp_angle,
         };
         if !sharp {
-            smooth_adj[t0 as usize].push(t1);
-            smooth_adj[t1 as usize].push(t0);
+            if !breaks.is_some_and(|b| b.contains(&key)) {
+                smooth_adj[t0 as usize].push(t1);
+                smooth_adj[t1 as usize].push(t0);
+            }
             continue;
         }
         let (a, b) = (verts[key.0 as usize], verts[key.1 as usize]);

@@ -6,6 +6,14 @@
 //! hold anything closer: a primitive not yet seen lies only in cells of ring >= k+1, all of
 //! which are at least k cell widths from the query (also for queries outside the grid, whose
 //! projection onto the grid box lies in the start cell and is no farther from any cell).
+//!
+//! Rays. [`GridIndex::ray_cells`] walks the cells a ray crosses in order (Amanatides & Woo,
+//! "A fast voxel traversal algorithm for ray tracing", Eurographics 1987) and lets the caller
+//! stop as soon as its best hit lies before the current cell's exit: the first hit of a ray
+//! through a surface mesh. The simulator's sensors cast one ray per pixel with it. A crate BVH
+//! (`bvh`, `parry3d-f64`) would add a large dependency for the same first-hit query; the grid
+//! already exists, is exact (f64, no traversal epsilon), and the parts are surfaces of
+//! roughly uniform triangle size, where a uniform grid is as fast as a tree.
 
 use crate::geometry::V3;
 
@@ -176,6 +184,73 @@ impl GridIndex {
             }
         }
         best
+    }
+}
+
+impl GridIndex {
+    /// Calls `visit(items, t_exit)` for every cell the ray `o + t d` (t in `[0, t_max]`)
+    /// crosses, nearest first, with the cell's primitives and the ray parameter where it leaves
+    /// the cell; stops when `visit` returns true (the caller's best hit lies before `t_exit`,
+    /// so no later cell can hold a nearer one). Primitives spanning several cells are visited
+    /// once per cell.
+    pub fn ray_cells(&self, o: V3, d: V3, t_max: f64, mut visit: impl FnMut(&[u32], f64) -> bool) {
+        if self.len == 0 {
+            return;
+        }
+        // Clip the ray to the grid's box (slab test).
+        let (mut t0, mut t1) = (0.0f64, t_max);
+        for k in 0..3 {
+            let lo = self.lo[k];
+            let hi = self.lo[k] + self.dims[k] as f64 * self.cell;
+            if d[k] == 0.0 {
+                if o[k] < lo || o[k] > hi {
+                    return;
+                }
+            } else {
+                let (a, b) = ((lo - o[k]) / d[k], (hi - o[k]) / d[k]);
+                t0 = t0.max(a.min(b));
+                t1 = t1.min(a.max(b));
+            }
+        }
+        if t0.is_nan() || t1.is_nan() || t0 > t1 {
+            return;
+        }
+        let mut cell = [0usize; 3];
+        let mut step = [0i64; 3];
+        let mut t_next = [f64::INFINITY; 3];
+        let mut t_delta = [f64::INFINITY; 3];
+        for k in 0..3 {
+            let x = (o[k] + t0 * d[k] - self.lo[k]) / self.cell;
+            let c = (x.floor().max(0.0) as usize).min(self.dims[k] - 1);
+            cell[k] = c;
+            if d[k] > 0.0 {
+                step[k] = 1;
+                t_delta[k] = self.cell / d[k];
+                t_next[k] = (self.lo[k] + (c + 1) as f64 * self.cell - o[k]) / d[k];
+            } else if d[k] < 0.0 {
+                step[k] = -1;
+                t_delta[k] = -self.cell / d[k];
+                t_next[k] = (self.lo[k] + c as f64 * self.cell - o[k]) / d[k];
+            }
+        }
+        loop {
+            let c = (cell[0] * self.dims[1] + cell[1]) * self.dims[2] + cell[2];
+            let items = &self.items[self.starts[c] as usize..self.starts[c + 1] as usize];
+            // The axis whose boundary comes first is where the ray leaves this cell.
+            let k = (0..3)
+                .min_by(|&a, &b| t_next[a].total_cmp(&t_next[b]))
+                .unwrap_or(0);
+            let t_exit = t_next[k].min(t1);
+            if visit(items, t_exit) || t_next[k] > t1 {
+                return;
+            }
+            let next = cell[k] as i64 + step[k];
+            if next < 0 || next >= self.dims[k] as i64 {
+                return;
+            }
+            cell[k] = next as usize;
+            t_next[k] += t_delta[k];
+        }
     }
 }
 

@@ -1,19 +1,24 @@
 //! The scan simulator: point clouds of parts with known sharp edges and corners.
 //!
 //! Input: [`SynthParams`] — a part (parametric shape, sphere, or a triangle mesh file), its
-//! size, the sampling (point count or spacing), the scan's disturbances (noise, edge rounding,
-//! extra noise near edges, outliers), a rigid placement (random rotation, translation) and a
-//! seed. Output: a [`Scan`] — the [`Cloud`] of simulated scanner points, a [`PointTruth`] per
+//! size, the sampling (point count or spacing) and its pattern ([`ScanPattern`]: uniform, scan
+//! lines, structured-light grid, one or several views, density gradient, incidence noise), the
+//! scan's disturbances (noise, edge rounding, extra noise near edges, outliers), a rigid
+//! placement (random rotation, translation) and a seed. Output: a [`Scan`] — the [`Cloud`] of simulated scanner points, a [`PointTruth`] per
 //! point (its noise-free place on the sharp part, its distance to the nearest sharp edge,
 //! whether it lies in the abnormal zone or is an outlier), and the [`GroundTruth`] of the part
-//! (edges, corners, faces, exact surface, transform) that serialises to JSON and answers exact
-//! distance queries for the benchmark.
+//! (edges, corners, faces, exact surface, transform; the sensors, cut planes and density
+//! gradient of patterned scans) that serialises to JSON and answers exact distance queries
+//! for the benchmark.
 //!
-//! How a point is made (details in the submodules):
+//! How a point is made (details in the submodules; `scan_mesh` runs these steps by name):
 //! 1. The part is a closed triangle mesh in model coordinates (the sphere is analytic), scaled
 //!    to `size` and centred on the origin. Sharp edges, corners and planar charts come from
 //!    [`features`]; for parametric parts every non-coplanar mesh edge is sharp, for meshes
-//!    from files those whose normals differ by more than `sharp_angle`.
+//!    from files those whose normals differ by more than `sharp_angle`. A random part
+//!    ([`random`], drawn from the seed) brings its own sharp edges: every non-coplanar edge
+//!    but the facets of its wide fillets, which are sampled like curved patches and appear in
+//!    the ground truth as [`TruthFillet`]s, not as edges.
 //! 2. Each chart is sampled on a jittered square grid of pitch `h` (module `sample`), like the
 //!    regular raster of a structured-light or laser scanner. The mean nearest-neighbour
 //!    distance is [`NN_RATIO`]` · h` = 0.955 h with the default jitter 0.1 (measured on a
@@ -21,17 +26,26 @@
 //!    0.93–0.94). On meshes whose planar charts are only a few spacings wide the independent
 //!    grids of neighbouring charts bring points closer (fandisk: 0.77 at 5k points, 0.91 at
 //!    200k, 0.935 at 1M). Given a point count `N`, `h = sqrt(area / N)`.
+//!    Other patterns (module [`scanner`] documents each; `patterns` and [`raycast`] make them)
+//!    replace this grid: scan lines (planes cut the triangles, points every `h` along each
+//!    cut), a structured-light pixel grid from sensors (first hits of rays, so occlusion is
+//!    real), the grid kept where a sensor sees it (one or several views, each misregistered a
+//!    little), thinned by a smooth density gradient; `h` then follows from the points the
+//!    pattern lays per h² of each triangle, so `N` is still about the total.
 //! 3. Samples within the tangent distance of a sharp edge move onto a fillet of radius
 //!    `round · h` (their closest point on the rounded part, [`fillet`]); samples within
 //!    `edge_band · h` of an edge get extra Gaussian noise `edge_noise · h`. Both make the
-//!    "abnormal zone" of the paper's Figure 1. Every point gets Gaussian noise `noise · h`.
+//!    "abnormal zone" of the paper's Figure 1. Every point gets Gaussian noise `noise · h`
+//!    (along the sensor's ray for sensor patterns; growing as 1 / cos of the incidence angle
+//!    with `incidence_noise`); a misregistered view then moves its points rigidly.
 //! 4. A fraction `outliers` of the points is replaced by uniform points in the part's world
 //!    bounding box enlarged by 5 % per side.
 //! 5. world = R · model + T, R uniform on SO(3) from the seed when `rotate` is set.
 //!
-//! Determinism: every random draw comes from an RNG seeded by (seed, chart, tile) or a hash of
-//! (seed, chart, grid node), never from shared state, so the output is identical for any
-//! number of rayon threads. Memory: two passes over the tiles (count, then fill into
+//! Determinism: every random draw comes from an RNG seeded by (seed, chart, tile) — (seed,
+//! chart, plane block) for scan lines, (seed, view, pixel tile) for sensor grids — or a hash
+//! of (seed, chart, grid node / line sample / pixel), never from shared state, so the output
+//! is identical for any number of rayon threads. Memory: two passes over the tiles (count, then fill into
 //! preallocated arrays); nothing is allocated per point.
 
 pub mod features;
@@ -39,7 +53,11 @@ pub mod fillet;
 pub mod geom;
 pub mod index;
 pub mod parts;
+mod patterns;
+pub mod random;
+pub mod raycast;
 mod sample;
+pub mod scanner;
 pub mod subdivide;
 pub mod truth;
 
@@ -49,12 +67,16 @@ use serde::{Deserialize, Serialize};
 
 use crate::cloud::{Attribute, Cloud, Column, Source};
 use crate::error::{Error, Result};
-use crate::geometry::{V3, add, dist, mat_vec};
+use crate::geometry::{self, V3, add, dist, mat_vec};
 use crate::io::mesh::{Mesh, read_mesh};
-use features::{FeatureOptions, Model, analyse, analyse_with};
+use features::{FeatureOptions, Model, analyse, analyse_marked, analyse_with};
 use geom::{derive, random_rotation};
 pub use parts::Part;
-pub use truth::{GroundTruth, TruthCorner, TruthEdge, TruthFace, TruthPolyline, TruthSurface};
+pub use scanner::{Pattern, ScanPattern};
+pub use truth::{
+    GroundTruth, TruthCorner, TruthDensity, TruthEdge, TruthFace, TruthFillet, TruthLines,
+    TruthPolyline, TruthSensor, TruthSurface,
+};
 
 /// Mean nearest-neighbour distance over the spacing `h` with the default jitter (0.1), on
 /// planar faces large compared with `h` (measured; `tests/synth_sampling.rs` checks it).
@@ -114,6 +136,10 @@ pub struct SynthParams {
     pub subdivide: u32,
     /// Grid jitter, full width per axis, in spacings, in [0, 1].
     pub jitter: f64,
+    /// The sampling pattern (scanner.rs); left out of the JSON when it is the plain uniform
+    /// scan, so truth files of uniform scans are unchanged.
+    #[serde(skip_serializing_if = "ScanPattern::is_default")]
+    pub scan: ScanPattern,
 }
 
 impl Default for SynthParams {
@@ -137,6 +163,7 @@ impl Default for SynthParams {
             sharp_angle: 30.0,
             subdivide: 2,
             jitter: 0.1,
+            scan: ScanPattern::default(),
         }
     }
 }
@@ -156,6 +183,9 @@ pub struct PointTruth {
     /// Moved by the rounding or inside the extra-noise band (never set for outliers).
     pub abnormal: bool,
     pub outlier: bool,
+    /// The view (sensor, `GroundTruth::sensors`) that saw it; `u32::MAX` for patterns
+    /// without views (uniform, lines), which cover the whole surface.
+    pub view: u32,
 }
 
 /// A simulated scan: the cloud, per-point truth (same order) and the part's ground truth.
@@ -169,9 +199,10 @@ pub struct Scan {
 impl Scan {
     /// Per-point truth as cloud attributes for inspection in CloudCompare/MeshLab:
     /// `scalar_abnormal`, `scalar_outlier` (0/1), `scalar_edge_distance` (f32, model units,
-    /// -1 without edges). Not added to the cloud by [`generate`].
+    /// -1 without edges), and `scalar_view` (u8) for scans with views. Not added to the cloud
+    /// by [`generate`].
     pub fn truth_attributes(&self) -> Vec<Attribute> {
-        vec![
+        let mut attrs = vec![
             Attribute {
                 name: "scalar_abnormal".into(),
                 values: Column::U8(self.truth.iter().map(|t| t.abnormal as u8).collect()),
@@ -195,11 +226,22 @@ impl Scan {
                         .collect(),
                 ),
             },
-        ]
+        ];
+        if self.truth.iter().any(|t| t.view != u32::MAX) {
+            attrs.push(Attribute {
+                name: "scalar_view".into(),
+                values: Column::U8(self.truth.iter().map(|t| t.view.min(255) as u8).collect()),
+            });
+        }
+        attrs
     }
 }
 
-fn bad(name: &'static str, value: impl std::fmt::Display, allowed: impl Into<String>) -> Error {
+pub(crate) fn bad(
+    name: &'static str,
+    value: impl std::fmt::Display,
+    allowed: impl Into<String>,
+) -> Error {
     Error::SynthParam {
         name,
         value: value.to_string(),
@@ -266,6 +308,7 @@ pub fn validate(p: &SynthParams) -> Result<()> {
     if !(p.jitter.is_finite() && (0.0..=1.0).contains(&p.jitter)) {
         return Err(bad("jitter", p.jitter, "must be in [0, 1] (in spacings)"));
     }
+    p.scan.validate()?;
     if p.subdivide > 4 {
         return Err(bad(
             "subdivide",
@@ -311,13 +354,22 @@ pub fn generate(params: &SynthParams) -> Result<Scan> {
     match &params.part {
         Part::Mesh(path) => {
             let mesh = read_mesh(path)?;
-            scan_mesh(params, mesh, false)
+            scan_mesh(params, mesh, Origin::File)
         }
+        Part::Sphere if !params.scan.is_default() => Err(bad(
+            "pattern",
+            params.scan.pattern.name(),
+            "the sphere is sampled by its own uniform lattice only; scan a sphere mesh with --mesh for other patterns",
+        )),
         Part::Sphere => scan_sphere(params),
+        Part::Random => {
+            let part = random::build(params.seed)?;
+            scan_mesh(params, part.mesh.clone(), Origin::Random(&part))
+        }
         part => {
             let mesh = parts::polyhedron(part, params.sides, params.angle, params.steps)
                 .ok_or_else(|| bad("part", part.name(), "not a polyhedral part"))?;
-            scan_mesh(params, mesh, true)
+            scan_mesh(params, mesh, Origin::Parametric)
         }
     }
 }
@@ -349,7 +401,18 @@ pub fn generate_from_mesh(params: &SynthParams, mesh: Mesh) -> Result<Scan> {
             why: "a vertex has a non-finite coordinate".into(),
         });
     }
-    scan_mesh(&p, mesh, false)
+    scan_mesh(&p, mesh, Origin::File)
+}
+
+/// Where a mesh to scan comes from: it decides the size and which edges are sharp.
+#[derive(Clone, Copy)]
+enum Origin<'a> {
+    /// A parametric part: every non-coplanar edge is sharp.
+    Parametric,
+    /// A mesh file: `sharp_angle` decides, curved patches may be subdivided.
+    File,
+    /// A random part: its own sharp edges, fillets and chart borders.
+    Random(&'a random::RandomPart),
 }
 
 const TAG_ROTATION: u64 = 0x0207_0A7E;
@@ -420,7 +483,21 @@ fn curved(model: &Model, flat: f64) -> bool {
     })
 }
 
-fn scan_mesh(p: &SynthParams, mut mesh: Mesh, parametric: bool) -> Result<Scan> {
+/// The part as the sampler needs it: analysed, scaled and centred (model coordinates).
+struct Prepared {
+    model: Model,
+    model_centre: V3,
+    model_scale: f64,
+    /// Largest extent of the bounding box.
+    extent: f64,
+    /// Radius of the bounding sphere about the origin (the part's centre).
+    radius: f64,
+}
+
+/// Scales and centres the mesh, finds its sharp edges, corners and charts, and smooths
+/// faceted curved patches by subdivision when asked to.
+fn prepare_part(p: &SynthParams, mut mesh: Mesh, origin: Origin) -> Result<Prepared> {
+    let parametric = !matches!(origin, Origin::File);
     let size = if parametric {
         Some(p.size.unwrap_or(100.0))
     } else {
@@ -447,7 +524,21 @@ fn scan_mesh(p: &SynthParams, mut mesh: Mesh, parametric: bool) -> Result<Scan> 
             chart_distance: 1e-4 * extent,
         }
     };
-    let mut model = analyse(mesh, &opts);
+    let mut model = match origin {
+        // A fillet's facets are sampled like a curved mesh's patches (one grid per 15°); its
+        // tangent lines end the flat faces' charts, so those stay exact planes.
+        Origin::Random(part) => analyse_marked(
+            mesh,
+            &FeatureOptions {
+                chart_angle: 15f64.to_radians(),
+                chart_distance: f64::INFINITY,
+                ..opts
+            },
+            Some(&part.creases),
+            Some(&part.breaks),
+        ),
+        _ => analyse(mesh, &opts),
+    };
     if !parametric && p.subdivide > 0 && curved(&model, opts.chart_angle) {
         let creases: std::collections::HashSet<(u32, u32)> =
             model.sharp_index.keys().copied().collect();
@@ -472,16 +563,63 @@ fn scan_mesh(p: &SynthParams, mut mesh: Mesh, parametric: bool) -> Result<Scan> 
             why: format!("surface area is {area}; nothing to sample"),
         });
     }
+    let radius = model
+        .mesh
+        .vertices
+        .iter()
+        .map(|v| geometry::norm(*v))
+        .fold(0.0, f64::max);
+    Ok(Prepared {
+        model,
+        model_centre,
+        model_scale,
+        extent,
+        radius,
+    })
+}
+
+/// The spacing `h`: given, or the pitch at which the pattern lays about the requested number
+/// of points (scanner.rs: the pattern's points per h² of each triangle, times the density
+/// gradient's mean keep). Fails when the scan would exceed [`MAX_POINTS`].
+fn spacing(p: &SynthParams, model: &Model, lay: &scanner::Layout) -> Result<f64> {
+    let plain = p.scan.pattern == Pattern::Uniform && lay.density.is_none();
+    // Area weighted by the points the pattern puts there, per h².
+    let weighted = if plain {
+        model.mesh.area()
+    } else {
+        (0..model.mesh.triangles.len())
+            .map(|t| {
+                let [a, b, c] = model.mesh.triangles[t].map(|i| model.mesh.vertices[i as usize]);
+                let area =
+                    0.5 * geometry::norm(geometry::cross(geometry::sub(b, a), geometry::sub(c, a)));
+                let keep = lay.density.map_or(1.0, |d| d.mean_keep(a, b, c));
+                area * keep * scanner::pitch_weight(model, lay, &p.scan, t)
+            })
+            .sum()
+    };
+    if !(weighted > 0.0 && weighted.is_finite()) {
+        return Err(Error::Degenerate {
+            what: "synth scan",
+            why: format!(
+                "the {} pattern puts no points on this part (no face is cut or seen)",
+                p.scan.pattern.name()
+            ),
+        });
+    }
     let h = match p.sampling {
         Sampling::Spacing(h) => h,
-        Sampling::Points(n) => (area / n as f64).sqrt(),
+        Sampling::Points(n) => (weighted / n as f64).sqrt(),
     };
-    let expected = area / (h * h);
+    let expected = weighted / (h * h);
     if expected > MAX_POINTS as f64 {
         return Err(too_many(p, expected));
     }
-    let r = p.round * h;
-    let fillets = fillet::build(&model, r).map_err(|max_r| {
+    Ok(h)
+}
+
+/// The fillets of radius `round · h`; a radius the part cannot take is a parameter error.
+fn round_edges(p: &SynthParams, model: &Model, h: f64) -> Result<fillet::Fillets> {
+    fillet::build(model, p.round * h).map_err(|max_r| {
         bad(
             "round",
             p.round,
@@ -490,29 +628,20 @@ fn scan_mesh(p: &SynthParams, mut mesh: Mesh, parametric: bool) -> Result<Scan> 
                 max_r / h
             ),
         )
-    })?;
+    })
+}
 
-    let rot = rotation(p);
-    let world = |q: V3| add(mat_vec(&rot, q), p.translate);
-    let world_vertices: Vec<V3> = model.mesh.vertices.iter().map(|&v| world(v)).collect();
-    let (out_lo, out_hi, double) = outlier_box_and_precision(&world_vertices, h, p.double);
-    let settings = sample::Settings {
-        h,
-        jitter: p.jitter,
-        seed: p.seed,
-        noise_sigma: p.noise * h,
-        edge_sigma: p.edge_noise * h,
-        band: p.edge_band * h,
-        outliers: p.outliers,
-        outlier_lo: out_lo,
-        outlier_hi: out_hi,
-        rotation: rot,
-        translation: p.translate,
-        eps: 1e-9 * extent.max(h),
-    };
-    let mut tiles = sample::tiles(&model, &settings);
-    sample::count(&model, &settings, &mut tiles);
-    let total: usize = tiles.iter().map(|t| t.count).sum();
+/// Counts the pattern's points, allocates the outputs once and fills them.
+fn run_source<S: sample::Source>(
+    p: &SynthParams,
+    src: &S,
+    keep: &sample::Keep,
+    fillets: &fillet::Fillets,
+    settings: &sample::Settings,
+    mut work: Vec<sample::Work<S::Unit>>,
+) -> Result<(Vec<V3>, Vec<PointTruth>)> {
+    sample::count(src, keep, &mut work);
+    let total: usize = work.iter().map(|w| w.count).sum();
     if total > MAX_POINTS {
         return Err(too_many(p, total as f64));
     }
@@ -525,19 +654,111 @@ fn scan_mesh(p: &SynthParams, mut mesh: Mesh, parametric: bool) -> Result<Scan> 
             face: 0,
             abnormal: false,
             outlier: false,
+            view: u32::MAX,
         };
         total
     ];
     sample::fill(
-        &model,
-        &fillets,
-        &settings,
-        &tiles,
+        src,
+        keep,
+        fillets,
+        settings,
+        &work,
         &mut positions,
         &mut truth,
     );
+    Ok((positions, truth))
+}
 
-    // Ground truth in world coordinates.
+/// Samples the model with the scanner's pattern: points (world) and their truth.
+fn sample_pattern(
+    p: &SynthParams,
+    part: &Prepared,
+    fillets: &fillet::Fillets,
+    s: &sample::Settings,
+) -> Result<(Vec<V3>, Vec<PointTruth>)> {
+    let (model, extent, radius) = (&part.model, part.extent, part.radius);
+    let sc = &s.scanner;
+    let needs_rays = matches!(sc.pattern, Pattern::Grid | Pattern::View);
+    let caster = needs_rays.then(|| raycast::Caster::new(&model.mesh));
+    let keep = sample::Keep {
+        density: sc.density.as_ref(),
+        sight: match (&caster, sc.pattern) {
+            (Some(c), Pattern::View) => Some((c, 1e-7 * extent.max(s.h))),
+            _ => None,
+        },
+        model,
+        scanner: sc,
+    };
+    match (sc.pattern, &caster, sc.lines) {
+        (Pattern::Lines, _, Some(lines)) => {
+            let src = patterns::LineScan {
+                model,
+                lines,
+                h: s.h,
+                jitter: s.jitter,
+                seed: s.seed,
+            };
+            let work = src.units();
+            run_source(p, &src, &keep, fillets, s, work)
+        }
+        (Pattern::Grid, Some(caster), _) => {
+            let cams: Vec<(scanner::Camera, &scanner::View)> = sc
+                .views
+                .iter()
+                .map(|v| (scanner::Camera::new(v.sensor, v.seed), v))
+                .collect();
+            let half_width: Vec<f64> = cams
+                .iter()
+                .map(|(c, _)| {
+                    // The bounding sphere's silhouette on the plane at the centre's distance.
+                    radius * c.dist / (c.dist * c.dist - radius * radius).max(1e-300).sqrt()
+                })
+                .collect();
+            let src = patterns::GridScan {
+                caster,
+                cams,
+                half_width,
+                jitter: s.jitter,
+            };
+            // Rays that miss cost time but no points; bound them too.
+            if src.rays() > 4.0 * MAX_POINTS as f64 {
+                return Err(too_many(p, src.rays()));
+            }
+            let work = src.units();
+            run_source(p, &src, &keep, fillets, s, work)
+        }
+        _ => {
+            let views = sc.pattern == Pattern::View;
+            let src = sample::Uniform {
+                model,
+                jitter: s.jitter,
+                grids: if views {
+                    sc.views.iter().map(|v| (v.pitch, v.seed)).collect()
+                } else {
+                    vec![(s.h, s.seed)]
+                },
+                views,
+            };
+            let work = src.tiles();
+            run_source(p, &src, &keep, fillets, s, work)
+        }
+    }
+}
+
+/// The ground truth in world coordinates: edges, corners, polylines, faces, the surface, and
+/// the scanner's sensors, cut planes and density gradient when the pattern has them.
+#[allow(clippy::too_many_arguments)]
+fn ground_truth(
+    p: &SynthParams,
+    part: &Prepared,
+    fillets: &fillet::Fillets,
+    s: &sample::Settings,
+    world_vertices: Vec<V3>,
+) -> GroundTruth {
+    let model = &part.model;
+    let rot = s.rotation;
+    let world = |q: V3| s.world(q);
     let mut edge_polyline = vec![0usize; model.edges.len()];
     let polylines: Vec<TruthPolyline> = model
         .polylines
@@ -598,12 +819,12 @@ fn scan_mesh(p: &SynthParams, mut mesh: Mesh, parametric: bool) -> Result<Scan> 
     let mut gt = GroundTruth::new(
         p.part.name(),
         p.clone(),
-        h,
-        r,
+        s.h,
+        fillets.r,
         rot,
         p.translate,
-        model_centre,
-        model_scale,
+        part.model_centre,
+        part.model_scale,
         edges,
         corners,
         polylines,
@@ -614,8 +835,145 @@ fn scan_mesh(p: &SynthParams, mut mesh: Mesh, parametric: bool) -> Result<Scan> 
         },
         model.stats.clone(),
     );
+    scanner_truth(&mut gt, s);
+    gt
+}
+
+/// The product of two 3x3 matrices (rows).
+fn mat_mul(a: &[V3; 3], b: &[V3; 3]) -> [V3; 3] {
+    [0, 1, 2].map(|i| [0, 1, 2].map(|j| (0..3).map(|k| a[i][k] * b[k][j]).sum()))
+}
+
+/// The scanner's part of the ground truth, in world coordinates.
+fn scanner_truth(gt: &mut GroundTruth, s: &sample::Settings) {
+    let rot = s.rotation;
+    let t = s.translation;
+    let sc = &s.scanner;
+    let rt = [0, 1, 2].map(|k| [rot[0][k], rot[1][k], rot[2][k]]);
+    gt.sensors = sc
+        .views
+        .iter()
+        .enumerate()
+        .map(|(v, view)| {
+            // A view's world points x were moved to R M Rᵀ (x − T) + R m + T.
+            let (rv, tv) = match &view.motion {
+                Some(m) => {
+                    let rv = mat_mul(&mat_mul(&rot, &m.rot), &rt);
+                    let tv =
+                        geometry::add(geometry::sub(t, mat_vec(&rv, t)), mat_vec(&rot, m.trans));
+                    (rv, tv)
+                }
+                None => (IDENTITY, [0.0; 3]),
+            };
+            TruthSensor {
+                view: v,
+                position: s.world(view.sensor),
+                pitch: view.pitch,
+                registration_rotation: rv,
+                registration_translation: tv,
+            }
+        })
+        .collect();
+    gt.lines = sc.lines.map(|l| {
+        let normal = mat_vec(&rot, l.normal);
+        TruthLines {
+            normal,
+            offset: l.offset + geometry::dot(normal, t),
+            gap: l.gap,
+        }
+    });
+    gt.density = sc.density.map(|d| {
+        let direction = mat_vec(&rot, d.dir);
+        let shift = geometry::dot(direction, t);
+        TruthDensity {
+            direction,
+            ratio: d.ln_ratio.exp(),
+            lo: d.lo + shift,
+            hi: d.lo + d.span + shift,
+        }
+    });
+}
+
+/// Simulates the scan of a mesh part: prepare the part, lay out the scanner, choose the
+/// spacing, round the edges, sample with the pattern, and write down the truth.
+fn scan_mesh(p: &SynthParams, mesh: Mesh, origin: Origin) -> Result<Scan> {
+    let part = prepare_part(p, mesh, origin)?;
+    let model = &part.model;
+    let rot = rotation(p);
+    let frame = scanner::Frame {
+        rotation: &rot,
+        translation: p.translate,
+        radius: part.radius,
+        seed: p.seed,
+    };
+    let lay = scanner::layout(&p.scan, model, &frame)?;
+    let h = spacing(p, model, &lay)?;
+    let fillets = round_edges(p, model, h)?;
+    let world = |q: V3| geometry::add(mat_vec(&rot, q), p.translate);
+    let world_vertices: Vec<V3> = model.mesh.vertices.iter().map(|&v| world(v)).collect();
+    let (out_lo, out_hi, double) = outlier_box_and_precision(&world_vertices, h, p.double);
+    let settings = sample::Settings {
+        h,
+        jitter: p.jitter,
+        seed: p.seed,
+        noise_sigma: p.noise * h,
+        edge_sigma: p.edge_noise * h,
+        band: p.edge_band * h,
+        outliers: p.outliers,
+        outlier_lo: out_lo,
+        outlier_hi: out_hi,
+        rotation: rot,
+        translation: p.translate,
+        eps: 1e-9 * part.extent.max(h),
+        scanner: scanner::resolve(&p.scan, lay, h, &frame),
+    };
+    let (positions, truth) = sample_pattern(p, &part, &fillets, &settings)?;
+    let mut gt = ground_truth(p, &part, &fillets, &settings, world_vertices);
+    if let Origin::Random(random_part) = origin {
+        gt.fillets = truth_fillets(model, random_part, part.model_scale, h, world);
+        gt.random = Some(random_part.draw.clone());
+    }
     gt_counts(&mut gt, &truth);
     Ok(finish_scan(p, gt, positions, truth, double))
+}
+
+/// The ground truth of a random part's fillets: their charts (those of the facets between
+/// their inner arc vertices) and tangent lines.
+fn truth_fillets(
+    model: &Model,
+    part: &random::RandomPart,
+    model_scale: f64,
+    h: f64,
+    world: impl Fn(V3) -> V3,
+) -> Vec<TruthFillet> {
+    part.fillets
+        .iter()
+        .enumerate()
+        .map(|(id, f)| {
+            let mut faces: Vec<usize> = (1..f.bottom.len().saturating_sub(1))
+                .filter_map(|k| {
+                    let (a, b) = (f.bottom[k], f.top[k]);
+                    model.edge_tris.get(&(a.min(b), a.max(b)))
+                })
+                .flatten()
+                .map(|&t| model.tri_chart[t as usize] as usize)
+                .collect();
+            faces.sort_unstable();
+            faces.dedup();
+            let line =
+                |k: usize| [f.bottom[k], f.top[k]].map(|v| world(model.mesh.vertices[v as usize]));
+            let last = f.bottom.len().saturating_sub(1);
+            let radius = f.radius * model_scale;
+            TruthFillet {
+                id,
+                radius,
+                radius_h: radius / h,
+                angle_deg: f.angle_deg,
+                faces,
+                tangent_lines: [line(0), line(last)],
+            }
+        })
+        .collect()
 }
 
 fn gt_counts(gt: &mut GroundTruth, truth: &[PointTruth]) {
@@ -679,6 +1037,7 @@ fn scan_sphere(p: &SynthParams) -> Result<Scan> {
         rotation: rot,
         translation: p.translate,
         eps: 1e-9 * radius,
+        scanner: scanner::Scanner::default(),
     };
     let mut positions = vec![[0.0; 3]; n];
     let mut truth = vec![
@@ -689,6 +1048,7 @@ fn scan_sphere(p: &SynthParams) -> Result<Scan> {
             face: u32::MAX,
             abnormal: false,
             outlier: false,
+            view: u32::MAX,
         };
         n
     ];

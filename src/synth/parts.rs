@@ -30,13 +30,15 @@ pub enum Part {
     Prism,
     Pyramid,
     Sphere,
+    /// A part drawn from the seed (module [`super::random`]).
+    Random,
     /// An OFF, PLY or OBJ triangle mesh.
     Mesh(std::path::PathBuf),
 }
 
 impl Part {
     /// The names [`Part::from_str`](std::str::FromStr) accepts.
-    pub const NAMES: &'static str = "box, lblock, step, wedge, prism, pyramid, sphere";
+    pub const NAMES: &'static str = "box, lblock, step, wedge, prism, pyramid, sphere, random";
 
     /// The part's name; for a mesh, the file name.
     pub fn name(&self) -> String {
@@ -48,6 +50,7 @@ impl Part {
             Part::Prism => "prism".into(),
             Part::Pyramid => "pyramid".into(),
             Part::Sphere => "sphere".into(),
+            Part::Random => "random".into(),
             Part::Mesh(p) => p
                 .file_name()
                 .map(|f| f.to_string_lossy().into_owned())
@@ -67,6 +70,7 @@ impl std::str::FromStr for Part {
             "prism" => Part::Prism,
             "pyramid" => Part::Pyramid,
             "sphere" => Part::Sphere,
+            "random" => Part::Random,
             _ => {
                 return Err(crate::Error::SynthParam {
                     name: "part",
@@ -78,8 +82,8 @@ impl std::str::FromStr for Part {
     }
 }
 
-/// The polyhedral mesh of `shape` (unscaled); `None` for the sphere, which is analytic, and
-/// for a mesh file.
+/// The polyhedral mesh of `shape` (unscaled); `None` for the sphere, which is analytic, for
+/// the random part (module `random`, drawn from the seed) and for a mesh file.
 pub fn polyhedron(shape: &Part, sides: usize, angle_deg: f64, steps: usize) -> Option<Mesh> {
     Some(match shape {
         Part::Box => extrude(&[[0.0, 0.0], [1.0, 0.0], [1.0, 0.8], [0.0, 0.8]], 0.6),
@@ -135,7 +139,7 @@ pub fn polyhedron(shape: &Part, sides: usize, angle_deg: f64, steps: usize) -> O
                 [3, 0, 4],
             ],
         },
-        Part::Sphere | Part::Mesh(_) => return None,
+        Part::Sphere | Part::Random | Part::Mesh(_) => return None,
     })
 }
 
@@ -291,7 +295,7 @@ mod tests {
         let e = "cube".parse::<Part>().unwrap_err().to_string();
         assert_eq!(
             e,
-            "synth parameter part = \"cube\": one of box, lblock, step, wedge, prism, pyramid, sphere"
+            "synth parameter part = \"cube\": one of box, lblock, step, wedge, prism, pyramid, sphere, random"
         );
     }
 }

@@ -4,7 +4,9 @@
 //! benchmark reads back: the part and every parameter, the spacing used, the sharp edges as
 //! segments (convex flag, dihedral angle, the two faces), the corners, the polylines the edges
 //! form, the planar faces, the exact surface (a triangle mesh or a sphere), and the rigid
-//! transform from model to world coordinates.
+//! transform from model to world coordinates; for scans with a sampling pattern also the
+//! sensors (position, pitch, misregistration of each view), the cut planes of a line scan and
+//! the density gradient (absent from the JSON of plain uniform scans).
 //!
 //! Queries are exact (no sampling): distance to the surface (closest point on a triangle,
 //! Ericson 2005; or on the sphere), to the nearest sharp edge segment, and to the nearest
@@ -77,6 +79,55 @@ pub struct TruthFace {
     pub triangles: usize,
 }
 
+/// One sensor of a scan with views (`grid`, `view`), or the sensor incidence noise is
+/// measured from (world coordinates).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TruthSensor {
+    pub view: usize,
+    pub position: V3,
+    /// The view's pitch (model units): the pixel pitch on the plane through the part's centre
+    /// facing the sensor (`grid`), or its grid pitch (`view`).
+    pub pitch: f64,
+    /// The view's misregistration: its points were moved from x to `R x + t` (world; the
+    /// identity for the first view).
+    pub registration_rotation: [V3; 3],
+    pub registration_translation: V3,
+}
+
+/// The cut planes of a line scan: plane k is `normal · x = offset + k gap` (world).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TruthLines {
+    pub normal: V3,
+    pub offset: f64,
+    pub gap: f64,
+}
+
+/// The density gradient: the density falls by `ratio` from `direction · x = lo` to `= hi`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TruthDensity {
+    pub direction: V3,
+    pub ratio: f64,
+    pub lo: f64,
+    pub hi: f64,
+}
+
+/// A wide fillet (a random part's rounded vertical edge): no sharp edge. A correct tool finds
+/// no edge along it and moves none of its points; its points and those within the away
+/// margin of its tangent lines do not count as "away from edges" (bench).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TruthFillet {
+    pub id: usize,
+    /// Radius in model units and in spacings.
+    pub radius: f64,
+    pub radius_h: f64,
+    /// Interior angle of the edge it rounds off (degrees; 90 for a box's edge).
+    pub angle_deg: f64,
+    /// The faces (charts) of its curved surface: `PointTruth::face` of its points.
+    pub faces: Vec<usize>,
+    /// The two lines where it meets the flat faces (world coordinates, bottom to top).
+    pub tangent_lines: [[V3; 2]; 2],
+}
+
 /// The exact surface of the sharp (unrounded) part, in world coordinates.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
@@ -103,7 +154,8 @@ struct Indexes {
 pub struct GroundTruth {
     /// Identifies the JSON layout.
     pub format: String,
-    /// Part name: box, lblock, step, wedge, prism, pyramid, sphere, or the mesh file's name.
+    /// Part name: box, lblock, step, wedge, prism, pyramid, sphere, random, or the mesh file's
+    /// name.
     pub part: String,
     pub params: SynthParams,
     /// Sampling pitch actually used (model units = world units).
@@ -125,6 +177,21 @@ pub struct GroundTruth {
     pub faces: Vec<TruthFace>,
     pub surface: TruthSurface,
     pub mesh_stats: MeshStats,
+    /// The sensors of the scan (absent for patterns without any).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub sensors: Vec<TruthSensor>,
+    /// The cut planes of a line scan.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lines: Option<TruthLines>,
+    /// The density gradient.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub density: Option<TruthDensity>,
+    /// Wide fillets (random parts): smooth, not sharp edges.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub fillets: Vec<TruthFillet>,
+    /// What the random part's generator drew (random parts only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub random: Option<super::random::RandomDraw>,
     #[serde(skip)]
     index: OnceLock<Indexes>,
 }
@@ -166,6 +233,11 @@ impl PartialEq for GroundTruth {
             && self.faces == o.faces
             && self.surface == o.surface
             && self.mesh_stats == o.mesh_stats
+            && self.sensors == o.sensors
+            && self.lines == o.lines
+            && self.density == o.density
+            && self.fillets == o.fillets
+            && self.random == o.random
     }
 }
 
@@ -218,6 +290,11 @@ impl GroundTruth {
             faces,
             surface,
             mesh_stats,
+            sensors: Vec::new(),
+            lines: None,
+            density: None,
+            fillets: Vec::new(),
+            random: None,
             index: OnceLock::new(),
         }
     }

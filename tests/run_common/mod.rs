@@ -107,6 +107,14 @@ pub const LBLOCK: &[&str] = &[
     "--seed", "3",
 ];
 
+/// What a run on a PLY (or XYZ) input writes, sorted.
+pub const PLY_OUTPUTS: [&str; 4] = [
+    "edges.geojson",
+    "features.ply",
+    "rectified.ply",
+    "report.json",
+];
+
 /// Writes `text` to DIR/pipeline.toml and returns its path.
 pub fn config(dir: &Path, text: &str) -> PathBuf {
     let p = dir.join("pipeline.toml");
