@@ -27,12 +27,11 @@ use rand::Rng;
 
 use super::exact::{Exact, exact_3d};
 use super::line::{Line, Line3, LineAcc};
-use super::method::{self, Case, Prepared, chosen, local_fit, order_far_end_first, pose};
+use super::method::{self, Case, Prepared, Searches, local_fit, order_far_end_first, pose};
 use super::objective::FixedSlopes3;
-use super::params::{FitParams, Searcher};
+use super::params::FitParams;
 use super::problem::{Frame, Problem};
 use super::propagate::propagate_run;
-use super::pso::Search;
 use crate::geometry::{cross, finite, norm, norm2, sub};
 use crate::{Error, Result};
 
@@ -60,15 +59,10 @@ pub struct CornerFit {
     pub candidates: Vec<SidePoint>,
     /// Noise level σ used by the propagation, input units.
     pub noise: f64,
-    /// Scheme 1's corner (a data point) and which one it is.
-    pub scheme1: Search<3>,
+    /// Scheme 1's, the PSO's and the exact corner.
+    pub searches: Searches<3>,
+    /// Which data point Scheme 1's corner is.
     pub scheme1_point: SidePoint,
-    /// The particle swarm's corner.
-    pub pso: Search<3>,
-    /// Best error after each PSO iteration (index 0 = initial swarm), input units.
-    pub pso_history: Vec<f64>,
-    /// The exact minimum of the fixed-slope error.
-    pub exact: Search<3>,
     /// For each corner-region point: its projection onto its own side's constrained
     /// half-line from the `rectify_with` corner.
     pub rectified: Vec<[f64; 3]>,
@@ -82,11 +76,6 @@ impl CornerFit {
             point: c,
             direction: l.direction,
         })
-    }
-
-    /// The corner found by `which`.
-    pub fn corner(&self, which: Searcher) -> &Search<3> {
-        chosen(which, &self.scheme1, &self.pso, &self.exact)
     }
 }
 
@@ -378,17 +367,14 @@ pub fn solve_corner_3d<R: Rng + ?Sized>(
     out: &mut CornerFit,
 ) -> Result<()> {
     let s = scratch;
-    let found = method::solve::<3, Vertex, R>(&mut s.fit, params, rng, &mut out.pso_history)?;
-    out.scheme1 = found.scheme1;
-    out.scheme1_point = s.side_point(found.scheme1_at);
-    out.pso = found.pso;
-    out.exact = found.exact;
+    let solved = method::solve::<3, Vertex, R>(&mut s.fit, params, rng, &mut out.searches)?;
+    out.scheme1_point = s.side_point(solved.scheme1_at);
     // A corner-region point stays with its edge: it goes onto its own side's half-line.
     let (start, lines) = (&s.start, &s.fit.lines);
     method::rectify(
-        &found.frame,
+        &solved.frame,
         &s.fit.loc,
-        &found.corner(params.rectify_with).point,
+        &out.searches.corner(params.rectify_with).point,
         out.corner_region
             .iter()
             .map(|&(j, i)| (start[j] + i, std::slice::from_ref(&lines[j].direction))),

@@ -112,6 +112,7 @@ pub use line::{
     Line, Line2, Line3, LineAcc, LineForm, PaperLine3, PaperRotation, fit_line, fit_line_2d_paper,
     fit_line_2d_paper_raw, fit_line_3d_paper, fit_line_3d_paper_raw, fit_line_form,
 };
+pub use method::Searches;
 pub use objective::{FixedSlopes, FixedSlopes2, FixedSlopes3, JointSlopes, Objective, fitness};
 pub use params::{FitParams, Searcher};
 pub use problem::{Frame, Problem};
