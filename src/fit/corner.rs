@@ -122,16 +122,13 @@ pub fn prepare_corner_3d(
     scratch: &mut CornerScratch,
     out: &mut CornerFit,
 ) -> Result<()> {
+    let frame = to_local_frame(scratch, sides, approx, params)?;
     let s = scratch;
-    s.fit.frame = None;
-    let min_side = params.min_side_points.max(2);
-    check_sides(sides, &approx, min_side)?;
-    let frame = to_local_frame(s, sides, approx)?;
 
     order_sides(s, sides.len())?;
     let runs = s.runs.iter().map(Vec::as_slice);
     let sigma = method::noise(params, &frame, &s.fit.loc, runs, &mut s.fit.res);
-    propagate_and_fit_sides(s, sigma, params, min_side, &frame, out)?;
+    propagate_and_fit_sides(s, sigma, params, params.min_side(), &frame, out)?;
     seed_candidates(s, out);
     assign_runs(s, params.include_corner_region);
     pose::<3, Vertex>(&mut s.fit, params, sigma, frame)?;
@@ -178,12 +175,17 @@ fn check_sides(sides: &[&[[f64; 3]]], approx: &[f64; 3], min_side: usize) -> Res
 }
 
 /// The local frame (centred on the approximate vertex, unit = the points' RMS distance from
-/// it, summed in canonical side order), and all sides' points in it.
+/// it, summed in canonical side order), and all sides' points in it. First forgets the last
+/// prepared problem (a failed preparation leaves none for the searches) and rejects what
+/// cannot be fitted ([`check_sides`]).
 fn to_local_frame(
     s: &mut CornerScratch,
     sides: &[&[[f64; 3]]],
     approx: [f64; 3],
+    params: &FitParams,
 ) -> Result<Frame<3>> {
+    s.fit.frame = None;
+    check_sides(sides, &approx, params.min_side())?;
     canonical_order(s, sides, &approx);
     let total: usize = sides.iter().map(|s| s.len()).sum();
     let sum_sq = s.fit.canon.iter().map(|&j| s.sq[j]).sum::<f64>();

@@ -159,10 +159,7 @@ pub fn prepare_profile_2d_zone(
     out: &mut ProfileFit,
 ) -> Result<()> {
     let s = scratch;
-    s.fit.frame = None;
-    let min_side = params.min_side_points.max(2);
-    check_profile(points, &approx_corner, min_side)?;
-    let frame = to_local_frame(s, points, approx_corner)?;
+    let frame = to_local_frame(s, points, approx_corner, params)?;
 
     let arm_line = split_into_arms(s, params)?;
     // Noise: far halves of the arms against their own lines.
@@ -170,7 +167,7 @@ pub fn prepare_profile_2d_zone(
     let sigma = method::noise(params, &frame, &s.fit.loc, arms, &mut s.fit.res);
     let ends = propagate_from_both_ends(s, sigma, params, &arm_line);
     let (s1_end, s2_start) = pull_back_from_zone(&s.fit.loc, &s.poly, known.zone, &frame, ends);
-    check_side_sizes([s1_end, s.poly.len() - s2_start], min_side)?;
+    check_side_sizes([s1_end, s.poly.len() - s2_start], params.min_side())?;
     record_sides(s, s1_end, s2_start, out);
 
     fit_local_lines(s, &arm_line, known, params, sigma, &out.sides)?;
@@ -217,12 +214,17 @@ fn check_profile(points: &[[f64; 2]], approx_corner: &[f64; 2], min_side: usize)
 }
 
 /// The local frame (centred on the approximate corner, unit = the points' RMS distance from
-/// it), and the points in it (`s.fit.loc`).
+/// it), and the points in it (`s.fit.loc`). First forgets the last prepared problem (a failed
+/// preparation leaves none for the searches) and rejects what cannot be fitted
+/// ([`check_profile`]).
 fn to_local_frame(
     s: &mut ProfileScratch,
     points: &[[f64; 2]],
     approx_corner: [f64; 2],
+    params: &FitParams,
 ) -> Result<Frame<2>> {
+    s.fit.frame = None;
+    check_profile(points, &approx_corner, params.min_side())?;
     let sum_sq = points
         .iter()
         .map(|p| norm2(sub(p, approx_corner)))
