@@ -108,7 +108,7 @@ fn corner_3d(c: &mut Criterion) {
         let mut rng = SmallRng::seed_from_u64(3);
         b.iter(|| {
             fit::fit_corner_3d_with(&slices, approx, &params, &mut rng, &mut s2, &mut o2).unwrap();
-            black_box(o2.pso.error)
+            black_box(o2.searches.pso.error)
         })
     });
     g.finish();
@@ -159,7 +159,7 @@ fn profile_2d(c: &mut Criterion) {
         let mut rng = SmallRng::seed_from_u64(3);
         b.iter(|| {
             fit::fit_profile_2d_with(&pts, approx, &params, &mut rng, &mut s2, &mut out).unwrap();
-            black_box(out.pso.error)
+            black_box(out.searches.pso.error)
         })
     });
     g.finish();

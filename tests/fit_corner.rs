@@ -57,8 +57,12 @@ fn noise_free_box_corner_is_exact() {
     let v = [1.0, 2.0, 3.0];
     let sides = corner(v, &BOX, 30, 0.2, 0.0, 1);
     let f = fit(&sides, [1.2, 2.1, 2.8], &FitParams::default(), 1);
-    assert!(dist(f.exact.point, v) < 1e-9, "{:?}", f.exact.point);
-    assert!(f.exact.error < 1e-8);
+    assert!(
+        dist(f.searches.exact.point, v) < 1e-9,
+        "{:?}",
+        f.searches.exact.point
+    );
+    assert!(f.searches.exact.error < 1e-8);
     for (l, d) in f.lines.iter().zip(BOX) {
         let c = l.direction[0] * d[0] + l.direction[1] * d[1] + l.direction[2] * d[2];
         assert!(c > 1.0 - 1e-12, "{:?}", l.direction);
@@ -91,18 +95,18 @@ fn noisy_corners_of_two_three_and_four_edges() {
             let sides = corner(v, dirs, 50, 0.2, 0.05, seed);
             let f = fit(&sides, [10.3, -5.2, 2.2], &FitParams::default(), seed);
             assert!(
-                dist(f.exact.point, v) < 0.05,
+                dist(f.searches.exact.point, v) < 0.05,
                 "case {k} seed {seed}: {:?}",
-                f.exact.point
+                f.searches.exact.point
             );
             assert!(
-                dist(f.pso.point, v) < 0.06,
+                dist(f.searches.pso.point, v) < 0.06,
                 "case {k} seed {seed}: {:?}",
-                f.pso.point
+                f.searches.pso.point
             );
-            assert!(f.pso.error <= f.scheme1.error);
-            assert!(f.exact.error <= f.pso.error * (1.0 + 1e-12));
-            assert_eq!(f.pso_history.len(), 11);
+            assert!(f.searches.pso.error <= f.searches.scheme1.error);
+            assert!(f.searches.exact.error <= f.searches.pso.error * (1.0 + 1e-12));
+            assert_eq!(f.searches.pso_history.len(), 11);
             assert_eq!(f.rectified.len(), f.corner_region.len());
         }
     }
@@ -122,9 +126,9 @@ fn permuting_the_sides_permutes_the_output_and_keeps_the_corner() {
         let p: Vec<Vec<[f64; 3]>> = perm.iter().map(|&i| sides[i].clone()).collect();
         let b = fit(&p, [0.1, 0.1, -0.1], &params, 5);
         for (x, y) in [
-            (a.pso.point, b.pso.point),
-            (a.exact.point, b.exact.point),
-            (a.scheme1.point, b.scheme1.point),
+            (a.searches.pso.point, b.searches.pso.point),
+            (a.searches.exact.point, b.searches.exact.point),
+            (a.searches.scheme1.point, b.searches.scheme1.point),
         ] {
             assert!(dist(x, y) < 1e-12, "{perm:?}: {x:?} vs {y:?}");
         }
@@ -143,7 +147,7 @@ fn the_papers_form_and_scratch_reuse() {
         ..FitParams::default()
     };
     let a = fit(&sides, [1.1, 0.9, 1.0], &params, 2);
-    assert!(dist(a.exact.point, [1.0, 1.0, 1.0]) < 0.03);
+    assert!(dist(a.searches.exact.point, [1.0, 1.0, 1.0]) < 0.03);
     let s: Vec<&[[f64; 3]]> = sides.iter().map(|x| x.as_slice()).collect();
     let other = corner([0.0; 3], &BOX[..2], 20, 0.3, 0.1, 9);
     let o: Vec<&[[f64; 3]]> = other.iter().map(|x| x.as_slice()).collect();
@@ -167,8 +171,8 @@ fn the_papers_form_and_scratch_reuse() {
         &mut out,
     )
     .unwrap();
-    assert_eq!(a.pso, out.pso);
-    assert_eq!(a.exact, out.exact);
+    assert_eq!(a.searches.pso, out.searches.pso);
+    assert_eq!(a.searches.exact, out.searches.exact);
     assert_eq!(a.corner_region, out.corner_region);
     assert_eq!(a.sides, out.sides);
 }

@@ -79,12 +79,16 @@ fn noise_free_vee_gives_the_exact_corner_and_lines() {
     let pts = profile([10.0, 10.0], -60.0, -120.0, 40, 0.25, 0.0, 0.0, 1);
     let f = fit(&pts, [10.3, 9.8], 1);
     assert!(
-        dist(f.exact.point, [10.0, 10.0]) < 1e-9,
+        dist(f.searches.exact.point, [10.0, 10.0]) < 1e-9,
         "{:?}",
-        f.exact.point
+        f.searches.exact.point
     );
-    assert!(f.exact.error < 1e-8);
-    assert!(dist(f.pso.point, [10.0, 10.0]) < 1e-3, "{:?}", f.pso.point);
+    assert!(f.searches.exact.error < 1e-8);
+    assert!(
+        dist(f.searches.pso.point, [10.0, 10.0]) < 1e-3,
+        "{:?}",
+        f.searches.pso.point
+    );
     // The local fits have the true directions (each pointing away from the corner).
     let dirs = [[-0.5f64, -(3f64.sqrt()) / 2.0], [0.5, -(3f64.sqrt()) / 2.0]];
     for l in &f.local {
@@ -116,14 +120,17 @@ fn noisy_shapes_find_the_corner_to_a_fraction_of_the_noise_scale() {
         for seed in 0..5 {
             let pts = profile([10.0, 10.0], a1, a2, 40, 0.25, sigma, round, seed);
             let f = fit(&pts, [10.2, 10.2], seed);
-            for c in [&f.pso, &f.exact] {
+            for c in [&f.searches.pso, &f.searches.exact] {
                 worst = worst.max(dist(c.point, [10.0, 10.0]));
             }
             // The swarm starts at Scheme 1's candidates: never worse, and it lands within 1 %
             // of the exact minimum.
-            assert!(f.pso.error <= f.scheme1.error);
-            assert!(f.exact.error <= f.pso.error * (1.0 + 1e-12));
-            assert!(f.pso.error <= 1.01 * f.exact.error, "case {k} seed {seed}");
+            assert!(f.searches.pso.error <= f.searches.scheme1.error);
+            assert!(f.searches.exact.error <= f.searches.pso.error * (1.0 + 1e-12));
+            assert!(
+                f.searches.pso.error <= 1.01 * f.searches.exact.error,
+                "case {k} seed {seed}"
+            );
         }
         // The fillet moves the best L1 corner only slightly; noise σ and 40 points a side.
         assert!(
@@ -143,7 +150,7 @@ fn rectified_points_lie_on_the_constrained_half_lines() {
     let f = fit_profile_2d(&pts, [10.0, 10.5], &params, &mut SmallRng::seed_from_u64(1)).unwrap();
     assert!(!f.corner_region.is_empty());
     assert_eq!(f.rectified.len(), f.corner_region.len());
-    let q = f.exact.point;
+    let q = f.searches.exact.point;
     for (r, &i) in f.rectified.iter().zip(&f.corner_region) {
         // On one of the rays from q along the local directions...
         let on_ray = f.local.iter().any(|l| {
@@ -173,11 +180,11 @@ fn a_few_outliers_do_not_move_the_corner() {
     pts.push([11.0, 7.5]);
     let dirty = fit(&pts, [10.1, 10.1], 2);
     assert!(
-        dist(dirty.exact.point, clean.exact.point) < 0.05,
+        dist(dirty.searches.exact.point, clean.searches.exact.point) < 0.05,
         "{:?}",
-        dirty.exact.point
+        dirty.searches.exact.point
     );
-    assert!(dist(dirty.exact.point, [10.0, 10.0]) < 0.05);
+    assert!(dist(dirty.searches.exact.point, [10.0, 10.0]) < 0.05);
 }
 
 #[test]
@@ -207,15 +214,15 @@ fn same_seed_same_fit_and_scratch_reuse_changes_nothing() {
         &mut out,
     )
     .unwrap();
-    assert_eq!(a.pso, out.pso);
-    assert_eq!(a.exact, out.exact);
+    assert_eq!(a.searches.pso, out.searches.pso);
+    assert_eq!(a.searches.exact, out.searches.exact);
     assert_eq!(a.sides, out.sides);
     assert_eq!(a.corner_region, out.corner_region);
     assert_eq!(a.rectified, out.rectified);
-    assert_eq!(a.pso_history, out.pso_history);
+    assert_eq!(a.searches.pso_history, out.searches.pso_history);
     let b = fit(&pts, [10.0, 10.2], 10);
     assert_ne!(
-        a.pso.point, b.pso.point,
+        a.searches.pso.point, b.searches.pso.point,
         "a different seed should move the swarm"
     );
 }
@@ -230,7 +237,7 @@ fn the_papers_line_form_and_options_run() {
         ..FitParams::default()
     };
     let f = fit_profile_2d(&pts, [10.0, 10.0], &params, &mut SmallRng::seed_from_u64(1)).unwrap();
-    assert!(dist(f.exact.point, [10.0, 10.0]) < 0.05);
+    assert!(dist(f.searches.exact.point, [10.0, 10.0]) < 0.05);
     assert!(f.candidates.len() <= 25);
 }
 
@@ -332,7 +339,7 @@ fn known_slopes_steady_the_corner() {
                 &mut out,
             )
             .unwrap();
-            *acc += dist(out.exact.point, truth) / 200.0;
+            *acc += dist(out.searches.exact.point, truth) / 200.0;
             if known.slopes.is_some() {
                 // Each side keeps one of the given directions (the sides come in the fit's
                 // canonical order, not the caller's).

@@ -132,7 +132,7 @@ proptest! {
         let moved: Vec<[f64; 2]> = pts.iter().map(|&p| map(p)).collect();
         let b = fit2(&moved, map(approx)).expect("the moved profile must fit too");
         let tol = 1e-9 * (s * 20.0 + tx.abs().max(ty.abs()));
-        for (x, y) in [(a.pso, b.pso), (a.exact, b.exact), (a.scheme1, b.scheme1)] {
+        for (x, y) in [(a.searches.pso, b.searches.pso), (a.searches.exact, b.searches.exact), (a.searches.scheme1, b.searches.scheme1)] {
             prop_assert!(close2(map(x.point), y.point, tol), "{:?} -> {:?} vs {:?}", x.point, map(x.point), y.point);
             // The error moves by at most (number of points) x (corner shift).
             prop_assert!((s * x.error - y.error).abs() <= 1e-9 * y.error + pts.len() as f64 * tol);
@@ -150,7 +150,7 @@ proptest! {
         let Ok(a) = fit2(&pts, [0.05, 0.05]) else { return Ok(()); };
         let rev: Vec<[f64; 2]> = pts.iter().rev().copied().collect();
         let b = fit2(&rev, [0.05, 0.05]).expect("reversed input must fit too");
-        for (x, y) in [(a.pso, b.pso), (a.exact, b.exact), (a.scheme1, b.scheme1)] {
+        for (x, y) in [(a.searches.pso, b.searches.pso), (a.searches.exact, b.searches.exact), (a.searches.scheme1, b.searches.scheme1)] {
             prop_assert!(close2(x.point, y.point, 1e-9), "{:?} vs {:?}", x.point, y.point);
         }
         let m = pts.len() - 1;
@@ -168,9 +168,9 @@ proptest! {
     ) {
         let pts = vee(angle, turn, n, sigma, round, seed);
         if let Ok(f) = fit2(&pts, [0.0, 0.0]) {
-            prop_assert!(f.exact.error <= f.pso.error * (1.0 + 1e-12) + 1e-12);
-            prop_assert!(f.pso.error <= f.scheme1.error);
-            prop_assert!(f.pso.point.iter().chain(&f.exact.point).all(|x| x.is_finite()));
+            prop_assert!(f.searches.exact.error <= f.searches.pso.error * (1.0 + 1e-12) + 1e-12);
+            prop_assert!(f.searches.pso.error <= f.searches.scheme1.error);
+            prop_assert!(f.searches.pso.point.iter().chain(&f.searches.exact.point).all(|x| x.is_finite()));
             prop_assert!(f.rectified.iter().flatten().all(|x| x.is_finite()));
         }
     }
@@ -185,15 +185,15 @@ proptest! {
             if let Some(&q) = p.first() { p.push(q); }
         }
         if let Ok(f) = fit2(&p, [ax, ay]) {
-            prop_assert!(f.pso.error.is_finite() && f.exact.error.is_finite());
-            prop_assert!(f.pso.point.iter().chain(&f.exact.point).chain(&f.scheme1.point).all(|x| x.is_finite()));
+            prop_assert!(f.searches.pso.error.is_finite() && f.searches.exact.error.is_finite());
+            prop_assert!(f.searches.pso.point.iter().chain(&f.searches.exact.point).chain(&f.searches.scheme1.point).all(|x| x.is_finite()));
         }
         let s3: Vec<[f64; 3]> = p.iter().map(|q| [q[0], q[1], q[0] - q[1]]).collect();
         let half = s3.len() / 2;
         let sides = vec![s3[..half].to_vec(), s3[half..].to_vec()];
         if let Ok(f) = fit3(&sides, [ax, ay, 0.0]) {
-            prop_assert!(f.pso.error.is_finite() && f.exact.error.is_finite());
-            prop_assert!(f.pso.point.iter().chain(&f.exact.point).all(|x| x.is_finite()));
+            prop_assert!(f.searches.pso.error.is_finite() && f.searches.exact.error.is_finite());
+            prop_assert!(f.searches.pso.point.iter().chain(&f.searches.exact.point).all(|x| x.is_finite()));
         }
     }
 
@@ -218,7 +218,7 @@ proptest! {
         let moved: Vec<Vec<[f64; 3]>> = sides.iter().map(|x| x.iter().map(|&p| map(p)).collect()).collect();
         let b = fit3(&moved, map(approx)).expect("the moved corner must fit too");
         let tol = 1e-9 * (s * 20.0 + t.0.abs().max(t.1.abs()).max(t.2.abs()));
-        for (x, y) in [(a.pso, b.pso), (a.exact, b.exact), (a.scheme1, b.scheme1)] {
+        for (x, y) in [(a.searches.pso, b.searches.pso), (a.searches.exact, b.searches.exact), (a.searches.scheme1, b.searches.scheme1)] {
             prop_assert!(close3(map(x.point), y.point, tol), "{:?} vs {:?}", map(x.point), y.point);
             let npts: usize = sides.iter().map(|x| x.len()).sum();
             prop_assert!((s * x.error - y.error).abs() <= 1e-9 * y.error + npts as f64 * tol);
@@ -228,8 +228,8 @@ proptest! {
         // Reversing the side order changes nothing but the order of the per-side output.
         let rev: Vec<Vec<[f64; 3]>> = sides.iter().rev().cloned().collect();
         let c = fit3(&rev, approx).expect("reordered sides must fit too");
-        prop_assert!(close3(a.pso.point, c.pso.point, 1e-12));
-        prop_assert!(close3(a.exact.point, c.exact.point, 1e-12));
+        prop_assert!(close3(a.searches.pso.point, c.searches.pso.point, 1e-12));
+        prop_assert!(close3(a.searches.exact.point, c.searches.exact.point, 1e-12));
         let back: Vec<Vec<usize>> = c.sides.iter().rev().cloned().collect();
         prop_assert_eq!(&a.sides, &back);
     }
@@ -250,12 +250,12 @@ fn regression_pso_error_never_exceeds_scheme1_by_rounding() {
     );
     let f = fit2(&pts, [0.0, 0.0]).unwrap();
     assert!(
-        f.pso.error <= f.scheme1.error,
+        f.searches.pso.error <= f.searches.scheme1.error,
         "{} > {}",
-        f.pso.error,
-        f.scheme1.error
+        f.searches.pso.error,
+        f.searches.scheme1.error
     );
-    assert!(f.pso_history.windows(2).all(|w| w[1] <= w[0]));
+    assert!(f.searches.pso_history.windows(2).all(|w| w[1] <= w[0]));
 }
 
 /// Regression: inside the flat minimum of the 2D error (between the middle values of the
@@ -275,9 +275,9 @@ fn regression_flat_minimum_does_not_let_rounding_steer_the_swarm() {
     let rev: Vec<[f64; 2]> = pts.iter().rev().copied().collect();
     let b = fit2(&rev, [0.05, 0.05]).unwrap();
     assert!(
-        close2(a.pso.point, b.pso.point, 1e-12),
+        close2(a.searches.pso.point, b.searches.pso.point, 1e-12),
         "{:?} vs {:?}",
-        a.pso.point,
-        b.pso.point
+        a.searches.pso.point,
+        b.searches.pso.point
     );
 }

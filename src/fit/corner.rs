@@ -27,12 +27,11 @@ use rand::Rng;
 
 use super::exact::{Exact, exact_3d};
 use super::line::{Line, Line3, LineAcc};
-use super::method::{self, Case, Prepared, chosen, local_fit, order_far_end_first, pose};
+use super::method::{self, Case, Prepared, Searches, local_fit, order_far_end_first, pose};
 use super::objective::FixedSlopes3;
-use super::params::{FitParams, Searcher};
+use super::params::FitParams;
 use super::problem::{Frame, Problem};
 use super::propagate::propagate_run;
-use super::pso::Search;
 use crate::geometry::{cross, finite, norm, norm2, sub};
 use crate::{Error, Result};
 
@@ -60,15 +59,10 @@ pub struct CornerFit {
     pub candidates: Vec<SidePoint>,
     /// Noise level σ used by the propagation, input units.
     pub noise: f64,
-    /// Scheme 1's corner (a data point) and which one it is.
-    pub scheme1: Search<3>,
+    /// Scheme 1's, the PSO's and the exact corner.
+    pub searches: Searches<3>,
+    /// Which data point Scheme 1's corner is.
     pub scheme1_point: SidePoint,
-    /// The particle swarm's corner.
-    pub pso: Search<3>,
-    /// Best error after each PSO iteration (index 0 = initial swarm), input units.
-    pub pso_history: Vec<f64>,
-    /// The exact minimum of the fixed-slope error.
-    pub exact: Search<3>,
     /// For each corner-region point: its projection onto its own side's constrained
     /// half-line from the `rectify_with` corner.
     pub rectified: Vec<[f64; 3]>,
@@ -82,11 +76,6 @@ impl CornerFit {
             point: c,
             direction: l.direction,
         })
-    }
-
-    /// The corner found by `which`.
-    pub fn corner(&self, which: Searcher) -> &Search<3> {
-        chosen(which, &self.scheme1, &self.pso, &self.exact)
     }
 }
 
@@ -133,16 +122,13 @@ pub fn prepare_corner_3d(
     scratch: &mut CornerScratch,
     out: &mut CornerFit,
 ) -> Result<()> {
+    let frame = to_local_frame(scratch, sides, approx, params)?;
     let s = scratch;
-    s.fit.frame = None;
-    let min_side = params.min_side_points.max(2);
-    check_sides(sides, &approx, min_side)?;
-    let frame = to_local_frame(s, sides, approx)?;
 
     order_sides(s, sides.len())?;
     let runs = s.runs.iter().map(Vec::as_slice);
     let sigma = method::noise(params, &frame, &s.fit.loc, runs, &mut s.fit.res);
-    propagate_and_fit_sides(s, sigma, params, min_side, &frame, out)?;
+    propagate_and_fit_sides(s, sigma, params, params.min_side(), &frame, out)?;
     seed_candidates(s, out);
     assign_runs(s, params.include_corner_region);
     pose::<3, Vertex>(&mut s.fit, params, sigma, frame)?;
@@ -189,12 +175,17 @@ fn check_sides(sides: &[&[[f64; 3]]], approx: &[f64; 3], min_side: usize) -> Res
 }
 
 /// The local frame (centred on the approximate vertex, unit = the points' RMS distance from
-/// it, summed in canonical side order), and all sides' points in it.
+/// it, summed in canonical side order), and all sides' points in it. First forgets the last
+/// prepared problem (a failed preparation leaves none for the searches) and rejects what
+/// cannot be fitted ([`check_sides`]).
 fn to_local_frame(
     s: &mut CornerScratch,
     sides: &[&[[f64; 3]]],
     approx: [f64; 3],
+    params: &FitParams,
 ) -> Result<Frame<3>> {
+    s.fit.frame = None;
+    check_sides(sides, &approx, params.min_side())?;
     canonical_order(s, sides, &approx);
     let total: usize = sides.iter().map(|s| s.len()).sum();
     let sum_sq = s.fit.canon.iter().map(|&j| s.sq[j]).sum::<f64>();
@@ -378,17 +369,14 @@ pub fn solve_corner_3d<R: Rng + ?Sized>(
     out: &mut CornerFit,
 ) -> Result<()> {
     let s = scratch;
-    let found = method::solve::<3, Vertex, R>(&mut s.fit, params, rng, &mut out.pso_history)?;
-    out.scheme1 = found.scheme1;
-    out.scheme1_point = s.side_point(found.scheme1_at);
-    out.pso = found.pso;
-    out.exact = found.exact;
+    let solved = method::solve::<3, Vertex, R>(&mut s.fit, params, rng, &mut out.searches)?;
+    out.scheme1_point = s.side_point(solved.scheme1_at);
     // A corner-region point stays with its edge: it goes onto its own side's half-line.
     let (start, lines) = (&s.start, &s.fit.lines);
     method::rectify(
-        &found.frame,
+        &solved.frame,
         &s.fit.loc,
-        &found.corner(params.rectify_with).point,
+        &out.searches.corner(params.rectify_with).point,
         out.corner_region
             .iter()
             .map(|&(j, i)| (start[j] + i, std::slice::from_ref(&lines[j].direction))),

@@ -38,7 +38,7 @@
 //! Input: what a case's own steps leave in [`Prepared`] (local points, local fits, the
 //! canonical side order, the points scored against each line, the candidates' seeds).
 //! Output: the prepared [`Problem`] and, from [`solve`], the three corners in input
-//! coordinates ([`Found`]).
+//! coordinates ([`Searches`], which both fit results hold).
 
 use std::fmt::Debug;
 
@@ -309,49 +309,49 @@ fn choose_candidates<const D: usize, O>(p: &mut Prepared<D, O>, params: &FitPara
     p.cand_scale = rms_radius(&p.loc, p.cand_idx.iter().copied()).max(sigma);
 }
 
-/// The three corners of a solved problem, in input coordinates.
+/// The three searches' corners of a solved problem, in input coordinates: the part of the
+/// result the 2D profile fit and the 3D vertex fit share.
+#[derive(Clone, Debug, Default)]
+pub struct Searches<const D: usize> {
+    /// Scheme 1: the best candidate data point, with its error.
+    pub scheme1: Search<D>,
+    /// The particle swarm's corner.
+    pub pso: Search<D>,
+    /// Best error after each PSO iteration (index 0 = initial swarm), input units.
+    pub pso_history: Vec<f64>,
+    /// The exact minimum of the fixed-slope error.
+    pub exact: Search<D>,
+}
+
+impl<const D: usize> Searches<D> {
+    /// The corner found by `which`.
+    pub fn corner(&self, which: Searcher) -> &Search<D> {
+        match which {
+            Searcher::Pso => &self.pso,
+            Searcher::Scheme1 => &self.scheme1,
+            Searcher::Exact => &self.exact,
+        }
+    }
+}
+
+/// What [`solve`] returns besides the [`Searches`] it fills: which local point Scheme 1
+/// chose, and the frame the problem was solved in (to rectify in).
 #[derive(Clone, Copy, Debug)]
-pub(crate) struct Found<const D: usize> {
-    /// Scheme 1's corner (a candidate data point) and its index in the local points.
-    pub(crate) scheme1: Search<D>,
+pub(crate) struct Solved<const D: usize> {
     pub(crate) scheme1_at: usize,
-    pub(crate) pso: Search<D>,
-    pub(crate) exact: Search<D>,
-    /// The frame the problem was solved in.
     pub(crate) frame: Frame<D>,
 }
 
-impl<const D: usize> Found<D> {
-    /// The corner found by `which`.
-    pub(crate) fn corner(&self, which: Searcher) -> &Search<D> {
-        chosen(which, &self.scheme1, &self.pso, &self.exact)
-    }
-}
-
-/// The one of the three searches' corners that `which` names.
-pub(crate) fn chosen<'a, const D: usize>(
-    which: Searcher,
-    scheme1: &'a Search<D>,
-    pso: &'a Search<D>,
-    exact: &'a Search<D>,
-) -> &'a Search<D> {
-    match which {
-        Searcher::Pso => pso,
-        Searcher::Scheme1 => scheme1,
-        Searcher::Exact => exact,
-    }
-}
-
 /// Step 5: Scheme 1, the PSO (started from the candidates, plus the lines' meeting point when
-/// `seed_with_intersection` asks) and the exact minimum on the prepared problem. `history`
-/// receives the PSO's best error per iteration, input units. Fails on an unprepared problem,
-/// no candidates, or a swarm that left the finite range.
+/// `seed_with_intersection` asks) and the exact minimum on the prepared problem, written to
+/// `out` (its `pso_history` reused). Fails on an unprepared problem, no candidates, or a
+/// swarm that left the finite range; then only `out.pso_history` has been overwritten.
 pub(crate) fn solve<const D: usize, C: Case<D>, R: Rng + ?Sized>(
     p: &mut Prepared<D, C::Objective>,
     params: &FitParams,
     rng: &mut R,
-    history: &mut Vec<f64>,
-) -> Result<Found<D>> {
+    out: &mut Searches<D>,
+) -> Result<Solved<D>> {
     let Some(frame) = p.frame else {
         return Err(Error::Degenerate {
             what: C::WHAT,
@@ -379,7 +379,7 @@ pub(crate) fn solve<const D: usize, C: Case<D>, R: Rng + ?Sized>(
         params.pso.iterations(D),
         rng,
         &mut p.swarm,
-        history,
+        &mut out.pso_history,
     );
     let ex = C::exact(p, params)?;
     let to_input = |r: Search<D>| Search {
@@ -387,22 +387,11 @@ pub(crate) fn solve<const D: usize, C: Case<D>, R: Rng + ?Sized>(
         error: frame.length_to_input(r.error),
         ..r
     };
-    let found = Found {
-        scheme1: to_input(s1),
-        scheme1_at: p.cand_idx[ci],
-        pso: to_input(swarm),
-        exact: to_input(Search {
-            point: ex.point,
-            error: ex.error,
-            evaluations: ex.iterations,
-            converged_at: ex.iterations,
-        }),
-        frame,
-    };
-    for h in history.iter_mut() {
+    let swarm = to_input(swarm);
+    for h in out.pso_history.iter_mut() {
         *h = frame.length_to_input(*h);
     }
-    if !(found.pso.error.is_finite() && finite(found.pso.point)) {
+    if !(swarm.error.is_finite() && finite(swarm.point)) {
         return Err(Error::Degenerate {
             what: C::WHAT,
             why: format!(
@@ -411,7 +400,18 @@ pub(crate) fn solve<const D: usize, C: Case<D>, R: Rng + ?Sized>(
             ),
         });
     }
-    Ok(found)
+    out.scheme1 = to_input(s1);
+    out.pso = swarm;
+    out.exact = to_input(Search {
+        point: ex.point,
+        error: ex.error,
+        evaluations: ex.iterations,
+        converged_at: ex.iterations,
+    });
+    Ok(Solved {
+        scheme1_at: p.cand_idx[ci],
+        frame,
+    })
 }
 
 /// Rectification: each corner-region point (an index into `loc`, with the directions of the

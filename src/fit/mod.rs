@@ -25,20 +25,19 @@
 //!   `sides[0..2]` (the points A..C and B..D, far end first, the local fits' data),
 //!   `corner_region` (between C and D: the points to rectify), `candidates` (the swarm's
 //!   start), `c`, `d`, `local` (L2 and L4: point + unit direction pointing away from the
-//!   corner), `noise` (σ used), `scheme1` / `pso` / `exact` (each a [`Search`]: `point`,
-//!   `error` = sum of point-to-line distances, Eq. 11, `evaluations`, `converged_at`),
-//!   `scheme1_index`, `pso_history` (best error per iteration), and `rectified`: for each
-//!   corner-region point, its nearest point on the two constrained half-lines from the corner
-//!   chosen by `params.rectify_with` (PSO by default). `lines_through(&corner)` gives the
-//!   constrained lines L1, L3.
+//!   corner), `noise` (σ used), `searches` (a [`Searches`]: `scheme1` / `pso` / `exact`, each
+//!   a [`Search`]: `point`, `error` = sum of point-to-line distances, Eq. 11, `evaluations`,
+//!   `converged_at`; `pso_history`, the best error per iteration; `corner(which)`),
+//!   `scheme1_index`, and `rectified`: for each corner-region point, its nearest point on the
+//!   two constrained half-lines from the corner chosen by `params.rectify_with` (PSO by
+//!   default). `lines_through(&corner)` gives the constrained lines L1, L3.
 //! - [`fit_corner_3d`] (paper §2.2, §3.2; one call per vertex): k ≥ 2 sides (the rectified
 //!   points of the edges meeting there; 3 at a box corner, 4 at a pyramid apex) and the
 //!   approximate vertex. Returns a [`CornerFit`] whose per-side fields follow the caller's
 //!   side order: `lines` (local fit per side, direction pointing away from the vertex),
 //!   `sides` (indices used per side), `corner_region` and `candidates` as (side, index),
-//!   `noise`, `scheme1` / `pso` / `exact` (errors by Eq. 13), `scheme1_point`, `pso_history`
-//!   and `rectified` (corner-region points projected onto their own side's constrained
-//!   half-line).
+//!   `noise`, `searches` (errors by Eq. 13), `scheme1_point` and `rectified` (corner-region
+//!   points projected onto their own side's constrained half-line).
 //! - The `_with` variants reuse a scratch struct and the output, so a hot loop does not
 //!   allocate once the buffers have grown: one of each per rayon worker, e.g.
 //!   `map_init(|| (ProfileScratch::default(), ProfileFit::default()), ...)`.
@@ -112,6 +111,7 @@ pub use line::{
     Line, Line2, Line3, LineAcc, LineForm, PaperLine3, PaperRotation, fit_line, fit_line_2d_paper,
     fit_line_2d_paper_raw, fit_line_3d_paper, fit_line_3d_paper_raw, fit_line_form,
 };
+pub use method::Searches;
 pub use objective::{FixedSlopes, FixedSlopes2, FixedSlopes3, JointSlopes, Objective, fitness};
 pub use params::{FitParams, Searcher};
 pub use problem::{Frame, Problem};

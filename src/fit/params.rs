@@ -104,6 +104,11 @@ fn check(name: &'static str, value: f64, ok: bool, expected: &'static str) -> Re
 }
 
 impl FitParams {
+    /// The fewest points a side may keep: `min_side_points`, never below the two a line needs.
+    pub fn min_side(&self) -> usize {
+        self.min_side_points.max(2)
+    }
+
     /// Checks every value's range; the error names the parameter and the accepted range.
     pub fn validate(&self) -> Result<()> {
         let p = &self.pso;

@@ -31,13 +31,12 @@ use rand::Rng;
 use super::exact::{Exact, exact_2d};
 use super::line::{Line, Line2};
 use super::method::{
-    self, Case, Prepared, check_not_parallel, chosen, local_fit, order_far_end_first, pose,
+    self, Case, Prepared, Searches, check_not_parallel, local_fit, order_far_end_first, pose,
 };
 use super::objective::FixedSlopes2;
-use super::params::{FitParams, Searcher};
+use super::params::FitParams;
 use super::problem::{Frame, Problem};
 use super::propagate::propagate_run;
-use super::pso::Search;
 use crate::geometry::{dot, finite, norm2, scale, sub, unit};
 use crate::{Error, Result};
 
@@ -67,16 +66,10 @@ pub struct ProfileFit {
     pub local: [Line2; 2],
     /// Noise level σ used by the propagation (given or estimated), input units.
     pub noise: f64,
-    /// Scheme 1: the best candidate data point, with its error.
-    pub scheme1: Search<2>,
+    /// Scheme 1's, the PSO's and the exact corner.
+    pub searches: Searches<2>,
     /// Index (into the input points) of Scheme 1's corner.
     pub scheme1_index: usize,
-    /// The particle swarm's corner.
-    pub pso: Search<2>,
-    /// Best error after each PSO iteration (index 0 = initial swarm), input units.
-    pub pso_history: Vec<f64>,
-    /// The exact minimum of the fixed-slope error.
-    pub exact: Search<2>,
     /// For each corner-region point (same order as `corner_region`): its rectified position,
     /// the nearest point on the two constrained half-lines from the `rectify_with` corner.
     pub rectified: Vec<[f64; 2]>,
@@ -89,11 +82,6 @@ impl ProfileFit {
             point: *corner,
             direction: self.local[j].direction,
         })
-    }
-
-    /// The corner found by `which`.
-    pub fn corner(&self, which: Searcher) -> &Search<2> {
-        chosen(which, &self.scheme1, &self.pso, &self.exact)
     }
 }
 
@@ -171,10 +159,7 @@ pub fn prepare_profile_2d_zone(
     out: &mut ProfileFit,
 ) -> Result<()> {
     let s = scratch;
-    s.fit.frame = None;
-    let min_side = params.min_side_points.max(2);
-    check_profile(points, &approx_corner, min_side)?;
-    let frame = to_local_frame(s, points, approx_corner)?;
+    let frame = to_local_frame(s, points, approx_corner, params)?;
 
     let arm_line = split_into_arms(s, params)?;
     // Noise: far halves of the arms against their own lines.
@@ -182,7 +167,7 @@ pub fn prepare_profile_2d_zone(
     let sigma = method::noise(params, &frame, &s.fit.loc, arms, &mut s.fit.res);
     let ends = propagate_from_both_ends(s, sigma, params, &arm_line);
     let (s1_end, s2_start) = pull_back_from_zone(&s.fit.loc, &s.poly, known.zone, &frame, ends);
-    check_side_sizes([s1_end, s.poly.len() - s2_start], min_side)?;
+    check_side_sizes([s1_end, s.poly.len() - s2_start], params.min_side())?;
     record_sides(s, s1_end, s2_start, out);
 
     fit_local_lines(s, &arm_line, known, params, sigma, &out.sides)?;
@@ -229,12 +214,17 @@ fn check_profile(points: &[[f64; 2]], approx_corner: &[f64; 2], min_side: usize)
 }
 
 /// The local frame (centred on the approximate corner, unit = the points' RMS distance from
-/// it), and the points in it (`s.fit.loc`).
+/// it), and the points in it (`s.fit.loc`). First forgets the last prepared problem (a failed
+/// preparation leaves none for the searches) and rejects what cannot be fitted
+/// ([`check_profile`]).
 fn to_local_frame(
     s: &mut ProfileScratch,
     points: &[[f64; 2]],
     approx_corner: [f64; 2],
+    params: &FitParams,
 ) -> Result<Frame<2>> {
+    s.fit.frame = None;
+    check_profile(points, &approx_corner, params.min_side())?;
     let sum_sq = points
         .iter()
         .map(|p| norm2(sub(p, approx_corner)))
@@ -565,17 +555,14 @@ pub fn solve_profile_2d<R: Rng + ?Sized>(
     out: &mut ProfileFit,
 ) -> Result<()> {
     let p = &mut scratch.fit;
-    let found = method::solve::<2, Profile, R>(p, params, rng, &mut out.pso_history)?;
-    out.scheme1 = found.scheme1;
-    out.scheme1_index = found.scheme1_at;
-    out.pso = found.pso;
-    out.exact = found.exact;
+    let solved = method::solve::<2, Profile, R>(p, params, rng, &mut out.searches)?;
+    out.scheme1_index = solved.scheme1_at;
     // A corner-region point belongs to neither side: it goes to the nearer half-line.
     let rays = [out.local[0].direction, out.local[1].direction];
     method::rectify(
-        &found.frame,
+        &solved.frame,
         &p.loc,
-        &found.corner(params.rectify_with).point,
+        &out.searches.corner(params.rectify_with).point,
         out.corner_region.iter().map(|&i| (i, &rays[..])),
         &mut out.rectified,
     );

@@ -188,8 +188,8 @@ fn fit_vertex(
     };
     let refs: Vec<&[[f64; 3]]> = sides.iter().map(|s| s.as_slice()).collect();
     let failure = match fit_corner_3d(&refs, approx, fit, rng) {
-        Ok(f) => match off(f.pso.point) {
-            None if let Some(why) = unsupported(f.pso.point) => {
+        Ok(f) => match off(f.searches.pso.point) {
+            None if let Some(why) = unsupported(f.searches.pso.point) => {
                 return CornerOutcome {
                     corner: None,
                     failure: Some(why),
@@ -199,10 +199,14 @@ fn fit_vertex(
                 return CornerOutcome {
                     corner: Some(CornerFit {
                         vertex: v,
-                        position: f.pso.point,
-                        scheme1: f.scheme1.point,
-                        exact: f.exact.point,
-                        errors: [f.scheme1.error, f.pso.error, f.exact.error],
+                        position: f.searches.pso.point,
+                        scheme1: f.searches.scheme1.point,
+                        exact: f.searches.exact.point,
+                        errors: [
+                            f.searches.scheme1.error,
+                            f.searches.pso.error,
+                            f.searches.exact.error,
+                        ],
                         edges: ids,
                     }),
                     failure: None,

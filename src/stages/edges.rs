@@ -700,7 +700,7 @@ pub fn circle_fit(points: &[[f64; 2]]) -> Option<(f64, f64)> {
 /// (through the swarm's corner, with the local fits' slopes) do, if one does.
 fn smooth_bend(profile: &[[f64; 2]], fit: &ProfileFit) -> Option<f64> {
     let (radius, circle_rms) = circle_fit(profile)?;
-    let q = fit.pso.point;
+    let q = fit.searches.pso.point;
     let dirs = [fit.local[0].direction, fit.local[1].direction];
     let ss: f64 = profile
         .iter()
@@ -1065,11 +1065,15 @@ fn slab_pass(
                 pass.slabs.push(SlabFit {
                     t: tc,
                     tangent,
-                    corner: lift(out.pso.point),
-                    corner_scheme1: lift(out.scheme1.point),
-                    corner_exact: lift(out.exact.point),
+                    corner: lift(out.searches.pso.point),
+                    corner_scheme1: lift(out.searches.scheme1.point),
+                    corner_exact: lift(out.searches.exact.point),
                     faces,
-                    errors: [out.scheme1.error, out.pso.error, out.exact.error],
+                    errors: [
+                        out.searches.scheme1.error,
+                        out.searches.pso.error,
+                        out.searches.exact.error,
+                    ],
                     abnormal,
                     abnormal_reach,
                     points: profile.len(),
@@ -1159,7 +1163,7 @@ fn abnormal_points(
     zone: f64,
     scale: &Scale,
 ) -> (Vec<u32>, f64) {
-    let pso = fit.pso.point;
+    let pso = fit.searches.pso.point;
     let reach = zone + 0.5 * scale.spacing + 2.0 * scale.noise;
     let mut abnormal: Vec<u32> = fit.corner_region.iter().map(|&j| members[j]).collect();
     if zone > 0.0 {
@@ -1182,7 +1186,7 @@ fn abnormal_points(
 /// Appends (distance along the face from the exact corner, signed distance to the face's
 /// local line towards the other face) for every side and corner-region point of a fit.
 fn collect_residuals(profile: &[[f64; 2]], fit: &ProfileFit, out: &mut Vec<(f64, f64, bool)>) {
-    let q = fit.exact.point;
+    let q = fit.searches.exact.point;
     let dirs = [fit.local[0].direction, fit.local[1].direction];
     // Normal of each face line pointing to the other face's side.
     let normals = [0, 1].map(|j| {
