@@ -28,12 +28,12 @@ use serde::Serialize;
 use crate::cloud::Cloud;
 use crate::config::Settings;
 use crate::error::{Error, Result};
-use crate::geometry::eigen3;
 use crate::geometry::{V3, add, cross, dot, norm, scale, sub};
 use crate::io::{self, ReadOptions};
 use crate::neighbours::knn;
 use crate::outcome::EdgeOut;
 use crate::pipeline::{self, NoClock};
+use crate::stages::features::{LocalPca, add_moments, pca_from_moments};
 
 /// Neighbours of each point for its normal (PCA of the k nearest).
 const NORMAL_K: usize = 24;
@@ -155,6 +155,20 @@ fn labels(cloud: &Cloud, name: &str) -> Result<Vec<u32>> {
         .collect())
 }
 
+/// PCA of the points `ids`, offsets taken from `origin` (one of them, so no precision is lost).
+fn pca(positions: &[[f64; 3]], origin: V3, ids: &[u32]) -> Option<LocalPca> {
+    let mut m = [0.0; 10];
+    for &j in ids {
+        add_moments(&mut m, sub(positions[j as usize], origin));
+    }
+    pca_from_moments(&m)
+}
+
+/// The normal `n` or its opposite, whichever faces the sensor at the origin from `at`.
+fn towards_sensor(n: V3, at: V3) -> V3 {
+    if dot(n, at) > 0.0 { scale(n, -1.0) } else { n }
+}
+
 /// Unit normals of every point (PCA of its k nearest neighbours), turned towards the sensor
 /// at the origin.
 fn normals(positions: &[[f64; 3]]) -> Result<Vec<V3>> {
@@ -162,29 +176,9 @@ fn normals(positions: &[[f64; 3]]) -> Result<Vec<V3>> {
     Ok(positions
         .iter()
         .enumerate()
-        .map(|(i, p)| {
-            let ids = nn.of(i);
-            let k = ids.len() as f64;
-            let mut c = [0.0; 3];
-            for &j in ids {
-                c = add(c, sub(positions[j as usize], *p));
-            }
-            c = scale(c, 1.0 / k);
-            let mut m = [0.0; 6];
-            for &j in ids {
-                let d = sub(sub(positions[j as usize], *p), c);
-                m[0] += d[0] * d[0];
-                m[1] += d[0] * d[1];
-                m[2] += d[0] * d[2];
-                m[3] += d[1] * d[1];
-                m[4] += d[1] * d[2];
-                m[5] += d[2] * d[2];
-            }
-            match eigen3::smallest(&m.map(|x| x / k)) {
-                Some((_, n)) if dot(n, *p) > 0.0 => scale(n, -1.0),
-                Some((_, n)) => n,
-                None => [0.0; 3],
-            }
+        .map(|(i, p)| match pca(positions, *p, nn.of(i)) {
+            Some(l) => towards_sensor(l.normal, *p),
+            None => [0.0; 3],
         })
         .collect())
 }
@@ -192,32 +186,11 @@ fn normals(positions: &[[f64; 3]]) -> Result<Vec<V3>> {
 /// Least-squares plane through `ids` (normal towards the sensor) and the standard deviation
 /// of the points along the plane's narrower direction; `None` if degenerate.
 fn fit_plane(positions: &[[f64; 3]], ids: &[u32]) -> Option<(V3, f64, f64)> {
-    if ids.len() < 3 {
-        return None;
-    }
-    let o = positions[ids[0] as usize];
-    let k = ids.len() as f64;
-    let mut c = [0.0; 3];
-    for &j in ids {
-        c = add(c, sub(positions[j as usize], o));
-    }
-    c = scale(c, 1.0 / k);
-    let mut m = [0.0; 6];
-    for &j in ids {
-        let d = sub(sub(positions[j as usize], o), c);
-        m[0] += d[0] * d[0];
-        m[1] += d[0] * d[1];
-        m[2] += d[0] * d[2];
-        m[3] += d[1] * d[1];
-        m[4] += d[1] * d[2];
-        m[5] += d[2] * d[2];
-    }
-    let (values, mut n) = eigen3::smallest(&m.map(|x| x / k))?;
-    let centroid = add(o, c);
-    if dot(n, centroid) > 0.0 {
-        n = scale(n, -1.0);
-    }
-    Some((n, dot(n, centroid), values[1].max(0.0).sqrt()))
+    let o = positions[*ids.first()? as usize];
+    let l = pca(positions, o, ids)?;
+    let centroid = add(o, l.centroid);
+    let n = towards_sensor(l.normal, centroid);
+    Some((n, dot(n, centroid), l.eigenvalues[1].sqrt()))
 }
 
 /// Points of `pool` on the plane (distance and normal agreement).
