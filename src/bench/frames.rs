@@ -28,7 +28,7 @@ use serde::Serialize;
 use crate::cloud::Cloud;
 use crate::config::Settings;
 use crate::error::{Error, Result};
-use crate::geometry::{V3, add, cross, dot, norm, scale, sub};
+use crate::geometry::{V3, add, cross, dot, norm, point_line_distance, point_segment, scale, sub};
 use crate::io::{self, ReadOptions};
 use crate::neighbours::knn;
 use crate::outcome::EdgeOut;
@@ -285,21 +285,14 @@ fn plane_line(a: &Face, b: &Face) -> Option<(V3, V3)> {
     Some((p, u))
 }
 
-/// Distance of `q` from the line (p, u) and its parameter along it.
-fn line_coords(q: V3, p: V3, u: V3) -> (f64, f64) {
-    let d = sub(q, p);
-    let t = dot(d, u);
-    (norm(sub(d, scale(u, t))), t)
-}
-
 /// The stretch of the line (p, u) where both faces come within [`MEET_REACH`], as (t0, t1).
 fn meeting_stretch(positions: &[[f64; 3]], a: &Face, b: &Face, p: V3, u: V3) -> Option<(f64, f64)> {
     let near = |f: &Face| -> Vec<f64> {
         f.points
             .iter()
             .filter_map(|&j| {
-                let (dist, t) = line_coords(positions[j as usize], p, u);
-                (dist < MEET_REACH).then_some(t)
+                let q = positions[j as usize];
+                (point_line_distance(q, (p, u)) < MEET_REACH).then(|| dot(sub(q, p), u))
             })
             .collect()
     };
@@ -608,18 +601,6 @@ pub fn table(results: &[FrameResult]) -> String {
     s
 }
 
-/// Distance from `q` to the segment (a, b).
-fn segment_distance(q: V3, a: V3, b: V3) -> f64 {
-    let ab = sub(b, a);
-    let l2 = dot(ab, ab);
-    let t = if l2 > 0.0 {
-        (dot(sub(q, a), ab) / l2).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    norm(sub(q, add(a, scale(ab, t))))
-}
-
 /// Distance from `q` to a polyline.
 fn polyline_distance(q: V3, pl: &[V3]) -> f64 {
     match pl {
@@ -627,7 +608,7 @@ fn polyline_distance(q: V3, pl: &[V3]) -> f64 {
         [a] => norm(sub(q, *a)),
         _ => pl
             .windows(2)
-            .map(|w| segment_distance(q, w[0], w[1]))
+            .map(|w| point_segment(q, w[0], w[1]).0)
             .fold(f64::INFINITY, f64::min),
     }
 }
@@ -698,7 +679,7 @@ pub fn score_frame(refs: &[RefEdge], found: &[EdgeOut], tolerance: f64) -> Frame
             total += 1;
             if refs
                 .iter()
-                .any(|r| segment_distance(q, r.start, r.end) <= tolerance)
+                .any(|r| point_segment(q, r.start, r.end).0 <= tolerance)
             {
                 near += 1;
             }
