@@ -232,16 +232,27 @@ pub struct ExperimentArgs {
 
 #[derive(Debug, Args)]
 pub struct BenchArgs {
-    /// Points per case (the 30k box keeps 30,000); with --random, the cap of the drawn point
-    /// counts (30,000 up to this).
-    #[arg(long, default_value_t = sharpedge::bench::DEFAULT_POINTS)]
-    pub points: usize,
+    /// Points per case (the 30k box keeps 30,000; default 500,000, with --patterns or --cad
+    /// 100,000); with --random, the cap of the drawn point counts (30,000 up to this).
+    #[arg(long)]
+    pub points: Option<usize>,
     /// Run N random parts under random scan settings instead of the suite: the parts and the
     /// settings (points log-uniform from 30,000 to --points, noise 0..0.3 h, edge rounding
     /// 0..2 h, a random rotation) are drawn from --seed; each case prints its own seed and the
     /// `sharpedge synth` command that makes its scan alone, and a summary row aggregates them.
-    #[arg(long, value_name = "N", conflicts_with = "cases")]
+    #[arg(long, value_name = "N", conflicts_with_all = ["cases", "patterns", "cad"])]
     pub random: Option<usize>,
+    /// Instead of the suite, issue 17's pattern check: box, L-block and octagonal prism each
+    /// scanned uniformly, in scan lines 3 and 10 spacings apart, as a structured-light grid,
+    /// from 3 overlapping views, from one view and with the density falling 4x, scored with
+    /// what each scan saw; prints a part x pattern table.
+    #[arg(long, conflicts_with_all = ["cases", "cad"])]
+    pub patterns: bool,
+    /// Instead of the suite, issue 17's CAD check: fandisk, anchor and joint from the data
+    /// folder's cad/, sampled with their facets as they are and subdivided twice; sharp =
+    /// dihedral beyond 30°, facet creases below it not counted against precision.
+    #[arg(long, conflicts_with = "cases")]
+    pub cad: bool,
     /// Cases to run, comma-separated (default: all): box, lblock, step, wedge, prism6,
     /// prism8, pyramid, sphere, box-noise0.5, box-noise1.0, box-30k, box-far, fandisk, anchor.
     #[arg(long, value_delimiter = ',')]
@@ -596,14 +607,21 @@ fn bench(_cli: &Cli, a: &BenchArgs) -> anyhow::Result<()> {
         }
         return Ok(());
     }
+    let points = a.points.unwrap_or(if a.patterns || a.cad {
+        sharpedge::bench::patterns::DEFAULT_POINTS
+    } else {
+        sharpedge::bench::DEFAULT_POINTS
+    });
     let report = sharpedge::bench::run(&sharpedge::bench::BenchOptions {
         cases: a.cases.clone(),
-        points: a.points,
+        points,
         seed: a.seed,
         threads: settings.threads,
         config: a.config.clone(),
         data: a.data.clone().or_else(sharpedge::bench::default_data_dir),
         random: a.random,
+        patterns: a.patterns,
+        cad: a.cad,
         settings,
     })?;
     let text = sharpedge::json::pretty(&report)? + "\n";

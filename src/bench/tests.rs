@@ -378,6 +378,7 @@ fn scored(kind: Kind) -> CaseResult {
         mean_h: Some(0.01),
         max_h: Some(0.1),
         offset_to_rounding_h: Some(0.0),
+        crease_length_h: None,
         oracle_rms_h: None,
         oracle_recall: None,
         ratio_to_oracle: None,
@@ -386,6 +387,7 @@ fn scored(kind: Kind) -> CaseResult {
     });
     r.rectify = Some(RectifyMetrics {
         abnormal_points: 10,
+        abnormal_unseen: 0,
         abnormal_moved: 10,
         before_h: Some(1.0),
         after_h: Some(0.3),
@@ -652,4 +654,173 @@ fn away_from_edges_starts_beyond_a_fillet() {
     });
     assert!(beyond.clone().count() > 100);
     assert!(beyond.into_iter().all(|i| mask[i]));
+}
+
+/// A box scanned from one side: only its faces turned towards (1, 1, 1) kept, as a one-view
+/// scan from far along that direction sees them.
+fn one_view_box(toward: V3) -> (synth::Scan, Vec<PointTruth>) {
+    let scan = synth::generate(&SynthParams {
+        sampling: Sampling::Points(20_000),
+        ..SynthParams::default()
+    })
+    .unwrap();
+    let gt = &scan.ground_truth;
+    let kept: Vec<PointTruth> = scan
+        .truth
+        .iter()
+        .copied()
+        .filter(|t| dot(gt.faces[t.face as usize].normal, toward) > 0.0)
+        .collect();
+    (scan, kept)
+}
+
+/// The corner rule on a one-view box: the corner where the three seen faces meet is
+/// required; the six on the silhouette (one or two faces seen) and the hidden one are not.
+/// On the whole scan every corner is required.
+#[test]
+fn corners_with_an_unseen_face_are_not_required() {
+    let toward = [1.0, 1.0, 1.0];
+    let (scan, kept) = one_view_box(toward);
+    let gt = &scan.ground_truth;
+    let h = gt.spacing;
+    assert_eq!(seen::required_corners(gt, &scan.truth, h), vec![true; 8]);
+    let req = seen::required_corners(gt, &kept, h);
+    let facing: Vec<bool> = gt
+        .corners
+        .iter()
+        .map(|c| (0..3).all(|k| c.position[k] > 0.0))
+        .collect();
+    assert_eq!(facing.iter().filter(|&&f| f).count(), 1);
+    assert_eq!(req, facing, "only the corner of the three seen faces");
+
+    // A tool that finds all eight corners exactly: the seen one is matched, the seven others
+    // count neither way; one that finds only the seen corner scores the same.
+    let all: Vec<CornerOut> = gt
+        .corners
+        .iter()
+        .map(|c| corner_out(c.position, c.position, c.position))
+        .collect();
+    let truth: Vec<V3> = gt.corners.iter().map(|c| c.position).collect();
+    let m = corner_metrics_on(&all, &truth, &req, None, h);
+    assert_eq!((m.truth, m.unseen, m.found, m.matched), (1, 7, 8, 1));
+    assert_eq!((m.recall, m.precision), (Some(1.0), Some(1.0)));
+    assert!(m.missed.is_empty() && m.spurious.is_empty());
+    let one: Vec<CornerOut> = all
+        .iter()
+        .zip(&req)
+        .filter(|(_, r)| **r)
+        .map(|(c, _)| c.clone())
+        .collect();
+    let m1 = corner_metrics_on(&one, &truth, &req, None, h);
+    assert_eq!((m1.recall, m1.precision), (Some(1.0), Some(1.0)));
+    // Nothing found: the seen corner is missed; a corner 10 h off the part is spurious.
+    let m0 = corner_metrics_on(&[], &truth, &req, None, h);
+    assert_eq!((m0.recall, m0.missed.len()), (Some(0.0), 1));
+    let off = [corner_out([0.0, 0.0, 10.0 * h + 50.0], [0.0; 3], [0.0; 3])];
+    let m2 = corner_metrics_on(&off, &truth, &req, None, h);
+    assert_eq!((m2.precision, m2.spurious.len()), (Some(0.0), 1));
+}
+
+/// Scan borders of the one-view box: its seen points beside the silhouette edges (a seen face
+/// against one turned away) are border points, those in the middle of a face are not, and
+/// found edges along the silhouette count as border length but not those along the seen
+/// edges.
+#[test]
+fn one_view_borders_are_found_and_scored() {
+    let toward = [1.0, 1.0, 1.0];
+    let (scan, kept) = one_view_box(toward);
+    let gt = &scan.ground_truth;
+    let h = gt.spacing;
+    let on = border::border_points(gt, &kept, h);
+    // Every point within 0.5 h of a silhouette edge is a border point; none 3 h or more from
+    // every edge is.
+    let silhouette: Vec<&synth::TruthEdge> = gt
+        .edges
+        .iter()
+        .filter(|e| {
+            e.faces
+                .iter()
+                .filter(|&&f| dot(gt.faces[f].normal, toward) > 0.0)
+                .count()
+                == 1
+        })
+        .collect();
+    assert_eq!(silhouette.len(), 6);
+    let near_silhouette = |t: &PointTruth| {
+        silhouette
+            .iter()
+            .map(|e| point_segment(t.surface, e.start, e.end).0)
+            .fold(f64::INFINITY, f64::min)
+    };
+    let (mut beside, mut inner) = (0, 0);
+    for (t, &b) in kept.iter().zip(&on) {
+        if near_silhouette(t) < 0.5 * h {
+            assert!(
+                b,
+                "a point {} h from the silhouette",
+                near_silhouette(t) / h
+            );
+            beside += 1;
+        }
+        if t.edge_distance > 3.0 * h {
+            assert!(!b, "a point {} h inside its face", t.edge_distance / h);
+            inner += 1;
+        }
+    }
+    assert!(beside > 100 && inner > 5_000, "{beside} {inner}");
+
+    let req = seen::required(gt, &kept, h);
+    let seen_set = SegmentSet::new(req.segments.clone(), EDGE_TOL * h);
+    let places: Vec<(V3, V3)> = kept
+        .iter()
+        .zip(&on)
+        .filter(|(_, b)| **b)
+        .map(|(t, _)| (t.surface, t.surface))
+        .collect();
+    let near = SegmentSet::new(places, EDGE_TOL * h);
+    let seen_edges: Vec<(V3, V3)> = req.segments.clone();
+    assert_eq!(
+        border::found_length_near(&seen_edges, &near, &seen_set, 0.1 * h),
+        0.0
+    );
+    // The silhouette edges, but for the 2 h next to a seen edge's end at each of their
+    // ends that meet one (6 of the 12 such ends).
+    let sil: Vec<(V3, V3)> = silhouette.iter().map(|e| (e.start, e.end)).collect();
+    let len: f64 = silhouette.iter().map(|e| e.length).sum();
+    let got = border::found_length_near(&sil, &near, &seen_set, 0.01 * h);
+    let want = len - 6.0 * EDGE_TOL * h;
+    assert!((got - want).abs() < 0.05 * h, "{got} vs {want}");
+}
+
+/// The facet creases of a mesh: a folded strip of two triangles per fold, folds of 10° and
+/// 50°: with the sharp angle 30°, the 10° fold is a crease, the 50° one is not (a sharp edge),
+/// nor the flat diagonals or the boundary.
+#[test]
+fn creases_are_the_folds_below_the_sharp_angle() {
+    let mut gt = box_truth().ground_truth;
+    // Vertices: the strip's cross-sections at x = 0, 1, 2; z rises after x = 1 by the fold
+    // angle's slope for the second panel.
+    let up = |deg: f64| deg.to_radians().tan();
+    let make = |deg: f64| -> Vec<V3> {
+        vec![
+            [0.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [1.0, 1.0, 0.0],
+            [2.0, 0.0, up(deg)],
+            [2.0, 1.0, up(deg)],
+        ]
+    };
+    let triangles = vec![[0, 2, 1], [1, 2, 3], [2, 4, 3], [3, 4, 5]];
+    for (deg, creases) in [(10.0, 1), (50.0, 0)] {
+        gt.surface = synth::TruthSurface::Mesh {
+            vertices: make(deg),
+            triangles: triangles.clone(),
+        };
+        let c = border::creases(&gt, 30.0);
+        assert_eq!(c.len(), creases, "fold {deg}°: {c:?}");
+        if creases == 1 {
+            assert_eq!(c[0], ([1.0, 0.0, 0.0], [1.0, 1.0, 0.0]));
+        }
+    }
 }
