@@ -232,8 +232,8 @@ pub struct ExperimentArgs {
 
 #[derive(Debug, Args)]
 pub struct BenchArgs {
-    /// Points per case (the 30k box keeps 30,000; default 500,000, with --patterns or --cad
-    /// 100,000); with --random, the cap of the drawn point counts (30,000 up to this).
+    /// Points per case (the 30k box keeps 30,000; default 500,000, with --patterns 100,000);
+    /// with --random, the cap of the drawn point counts (30,000 up to this).
     #[arg(long)]
     pub points: Option<usize>,
     /// Run N random parts under random scan settings instead of the suite: the parts and the
@@ -607,7 +607,7 @@ fn bench(_cli: &Cli, a: &BenchArgs) -> anyhow::Result<()> {
         }
         return Ok(());
     }
-    let points = a.points.unwrap_or(if a.patterns || a.cad {
+    let points = a.points.unwrap_or(if a.patterns {
         sharpedge::bench::patterns::DEFAULT_POINTS
     } else {
         sharpedge::bench::DEFAULT_POINTS

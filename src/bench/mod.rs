@@ -117,8 +117,8 @@ pub enum Kind {
     Random,
     /// A fixed part under a sampling pattern (`--patterns`): issue 17's thresholds.
     Pattern,
-    /// A CAD mesh (`--cad`): issue 17's CAD thresholds, facet creases below the sharp angle
-    /// left out of precision.
+    /// A CAD mesh (`--cad`): issue 17's CAD thresholds (corner and edge recall and precision
+    /// only), facet creases below the sharp angle left out of precision.
     Cad,
 }
 
@@ -1398,6 +1398,10 @@ pub fn checks(kind: Kind, accuracy: bool, r: &CaseResult) -> Vec<Check> {
                 ">=",
                 limits::CAD_EDGE,
             ));
+            // The issue's CAD check is these four: rectification is reported, not judged
+            // (edges found along facet creases, which precision leaves out, move their
+            // points, and those points count as away from the sharp edges).
+            return out;
         }
         Kind::Curved => {
             out.push(Check::new(
@@ -1694,7 +1698,7 @@ pub fn table(rep: &BenchReport) -> String {
         let _ = writeln!(t);
         let _ = writeln!(
             t,
-            "summary over {} random cases ({} scored): corners recall {} precision {}; edges recall {} precision {}; median corner error / oracle {}; median rectified / raw {}; points away from edges moved {} (in {} cases); {} of {} pass ({:.0} %)",
+            "summary over {} random cases ({} scored): corners recall {} precision {}; edges recall {} precision {}; median corner error / oracle {}; median rectified / raw {}; points away from edges moved {} (in {} cases); found edges on scan borders {:.1} h (in {} cases); {} of {} pass ({:.0} %)",
             s.cases,
             s.scored,
             opt(s.corner_recall, 0, 3),
@@ -1705,6 +1709,8 @@ pub fn table(rep: &BenchReport) -> String {
             opt(s.median_rectify_ratio, 0, 3),
             s.away_moved,
             s.cases_with_away_moved,
+            s.found_on_border_h,
+            s.cases_with_border_edges,
             s.passed,
             s.cases,
             100.0 * s.pass_share

@@ -130,6 +130,10 @@ pub struct Summary {
     /// Points away from edges that moved, in all cases, and in how many cases.
     pub away_moved: usize,
     pub cases_with_away_moved: usize,
+    /// Found edge length on scan borders (spacings of each case) over the cases scanned with
+    /// views, and in how many cases it is not 0 (issue 17: borders never reported as edges).
+    pub found_on_border_h: f64,
+    pub cases_with_border_edges: usize,
     /// How many cases failed each check.
     pub failed_checks: Vec<FailedCheck>,
 }
@@ -150,6 +154,7 @@ pub fn summary(results: &[CaseResult]) -> Summary {
     let (mut et, mut ec, mut ef, mut efc) = (0.0, 0.0, 0.0, 0.0);
     let (mut ratios, mut rect) = (Vec::new(), Vec::new());
     let (mut away, mut away_cases, mut scored) = (0, 0, 0);
+    let (mut border, mut border_cases) = (0.0, 0);
     let mut failed: Vec<FailedCheck> = Vec::new();
     for r in results {
         if let (Some(c), Some(e), Some(x)) = (&r.corners, &r.edges, &r.rectify) {
@@ -165,6 +170,10 @@ pub fn summary(results: &[CaseResult]) -> Summary {
             rect.extend(x.ratio);
             away += x.away_moved;
             away_cases += usize::from(x.away_moved > 0);
+            if let Some(b) = &r.border {
+                border += b.found_on_border_h;
+                border_cases += usize::from(b.found_on_border_h > 0.0);
+            }
         }
         for c in r.checks.iter().filter(|c| !c.pass) {
             match failed.iter_mut().find(|f| f.check == c.name) {
@@ -195,6 +204,8 @@ pub fn summary(results: &[CaseResult]) -> Summary {
         median_rectify_ratio: median(&rect),
         away_moved: away,
         cases_with_away_moved: away_cases,
+        found_on_border_h: border,
+        cases_with_border_edges: border_cases,
         failed_checks: failed,
     }
 }

@@ -824,3 +824,54 @@ fn creases_are_the_folds_below_the_sharp_angle() {
         }
     }
 }
+
+/// Issue 17's verdicts: the CAD check is its four detection thresholds; a pattern row with no
+/// corner to require passes the corner checks, and a found edge on a scan border fails it.
+#[test]
+fn cad_and_pattern_verdicts() {
+    let mut r = scored(Kind::Cad);
+    r.edges.as_mut().unwrap().precision = Some(0.96);
+    r.corners = Some(CornerMetrics {
+        recall: Some(0.9),
+        precision: Some(0.95),
+        ..corner_metrics(&[], &[], None, 1.0)
+    });
+    r.rectify.as_mut().unwrap().away_moved = 5;
+    let c = checks(Kind::Cad, false, &r);
+    let names: Vec<&str> = c.iter().map(|c| c.name).collect();
+    assert_eq!(
+        names,
+        [
+            "corner recall",
+            "corner precision",
+            "edge recall",
+            "edge precision"
+        ]
+    );
+    assert!(c.iter().all(|c| c.pass), "{c:?}");
+    r.corners.as_mut().unwrap().recall = Some(0.89);
+    assert!(!checks(Kind::Cad, false, &r)[0].pass);
+
+    let mut r = scored(Kind::Pattern);
+    r.edges.as_mut().unwrap().precision = Some(1.0);
+    let c = checks(Kind::Pattern, false, &r);
+    let corners: Vec<&Check> = c.iter().filter(|c| c.name.starts_with("corner")).collect();
+    assert_eq!(corners.len(), 2);
+    assert!(corners.iter().all(|c| c.pass && c.value == Some(1.0)));
+    assert!(c.iter().all(|c| c.pass), "{c:?}");
+    assert!(!c.iter().any(|c| c.name.contains("oracle")));
+    // The same empty corners on a random part: undefined, a failure.
+    let c = checks(Kind::Random, false, &r);
+    assert!(!c.iter().find(|c| c.name == "corner recall").unwrap().pass);
+    r.border = Some(BorderMetrics {
+        border_points: 100,
+        found_on_border_h: 0.5,
+        share: Some(0.005),
+    });
+    let c = checks(Kind::Pattern, false, &r);
+    let b = c
+        .iter()
+        .find(|c| c.name == "found edge on scan borders (h)")
+        .unwrap();
+    assert_eq!((b.value, b.pass), (Some(0.5), false));
+}
