@@ -826,15 +826,16 @@ fn score_case(
     let oracle = matches!(case.kind, Kind::Polyhedral | Kind::Random | Kind::Pattern)
         .then(|| oracle::fit(gt, &out.cloud.positions, truth));
     let true_corners: Vec<V3> = gt.corners.iter().map(|c| c.position).collect();
+    let pitch = seen::pitch(gt);
+    let required = seen::required(gt, truth, pitch);
     r.corners = Some(corner_metrics_on(
         &out.corners,
         &true_corners,
-        &seen::required_corners(gt, truth, seen::pitch(gt)),
+        &seen::required_corners(gt, &required, pitch),
         oracle.as_ref().map(|o| o.corners.as_slice()),
         h,
     ));
     let polylines: Vec<Vec<V3>> = out.edges.iter().map(|e| e.polyline.clone()).collect();
-    let required = seen::required(gt, truth, seen::pitch(gt));
     let mut edges = edge_metrics_on(
         &polylines,
         gt,
@@ -856,7 +857,7 @@ fn score_case(
             .and_then(|covered| (counted > 0.0).then(|| (covered / counted).min(1.0)));
     }
     if gt.params.scan.pattern == synth::Pattern::View {
-        let on_border = border::border_points(gt, truth, seen::pitch(gt));
+        let on_border = border::border_points(gt, truth, pitch);
         let places: Vec<(V3, V3)> = truth
             .iter()
             .zip(&on_border)

@@ -4,11 +4,12 @@
 //! edge along it is a false positive (a scan border is not a sharp edge).
 //!
 //! Input: the ground truth, the per-point truth (noise-free position, face id, outlier flag)
-//! and the scan's coarsest pitch ([`pitch`]: the spacing `h` of a uniform scan). Output: [`Stretches`] — the required pieces of the true edge segments,
-//! each with the id of the edge it comes from, and the length left out.
+//! and the scan's coarsest pitch ([`pitch`]: the spacing `h` of a uniform scan). Output:
+//! [`Stretches`] — the required pieces of the true edge segments, each with the id of the
+//! edge it comes from, and the length left out — and which true corners are required.
 //!
-//! Rule. Each true edge is cut into cells of [`CELL`] h. A point that is no outlier and lies
-//! (noise-free) within [`RADIUS`] h of the edge marks, for the side of the edge it was sampled
+//! Rule (distances in pitches). Each true edge is cut into cells of [`CELL`] pitches. A point
+//! that is no outlier and lies (noise-free) within [`RADIUS`] pitches of the edge marks, for the side of the edge it was sampled
 //! on, every cell within that distance of it. Its side is the face whose id it carries, or, for
 //! a point of another face (a curved mesh's neighbouring patch), the edge face whose normal is
 //! within [`SIDE_ANGLE_DEG`] of its own face's normal (the end face of a box edge is neither).
@@ -17,11 +18,13 @@
 //! that see everything are scored exactly as before this rule).
 //!
 //! Corners ([`required_corners`]). A true corner is required when every face meeting at it is
-//! sampled within [`RADIUS`] h of it: for each of its edges, both sides (as above) have a
-//! point that close. A one-view scan of a box sees one corner with its three faces; the
-//! corners on the silhouette show one or two faces, the hidden one none, and no tool can
-//! place a corner whose faces it never saw (measured: a one-view box at 100,000 points keeps
-//! 1 of 8 corners required, the same corner the edges required around it meet at).
+//! sampled near it: each of its edges is required up to the corner (its end cell seen). A
+//! one-view scan of a box that sees three faces sees one corner with all three; the corners
+//! on the silhouette show one or two faces, the hidden one none, and no tool can place a
+//! corner whose faces it never saw. Deriving the corners from the edge stretches, not from a
+//! separate distance test, keeps the two consistent: a first version (a point of each side
+//! within 5 h of the corner) left one of the suite's anchor corners unrequired on a uniform
+//! scan whose edges were all required.
 
 use crate::geometry::{V3, dist, dot, norm, sub};
 use crate::synth::{GroundTruth, PointTruth};
@@ -76,41 +79,28 @@ fn side(gt: &GroundTruth, e: usize, face: u32) -> Option<usize> {
     (c[k] >= SIDE_ANGLE_DEG.to_radians().cos()).then_some(k)
 }
 
-/// Whether each true corner of `gt` is required (see the module comment): every side of
-/// every edge meeting at it has a point within [`RADIUS`] h. A corner without edges is
-/// required (it has no face that could be unseen).
-pub fn required_corners(gt: &GroundTruth, truth: &[PointTruth], h: f64) -> Vec<bool> {
-    if gt.corners.is_empty() {
-        return Vec::new();
-    }
-    let set = SegmentSet::new(
-        gt.corners
-            .iter()
-            .map(|c| (c.position, c.position))
-            .collect(),
-        RADIUS * h,
-    );
-    // sides[c][j][k]: side k of the corner's j-th edge has a point near the corner.
-    let mut sides: Vec<Vec<[bool; 2]>> = gt
-        .corners
+/// Whether each true corner of `gt` is required (see the module comment): every edge meeting
+/// at it is required up to it (a stretch of `required` ends there). The corner's own sides
+/// are then seen beside it, by the same test as the edges' so the two rules cannot disagree;
+/// a corner without edges is required (it has no face that could be unseen). `pitch` is the
+/// one `required` was computed with.
+pub fn required_corners(gt: &GroundTruth, required: &Stretches, pitch: f64) -> Vec<bool> {
+    // A seen end cell starts its stretch exactly at the edge's end; half a cell absorbs the
+    // rounding of the cell arithmetic.
+    let tol = 0.5 * CELL * pitch;
+    gt.corners
         .iter()
-        .map(|c| vec![[false; 2]; c.edges.len()])
-        .collect();
-    for t in truth {
-        if t.outlier || t.face == u32::MAX {
-            continue;
-        }
-        for (c, _) in set.all_within(t.surface) {
-            for (j, &e) in gt.corners[c].edges.iter().enumerate() {
-                if let Some(k) = side(gt, e, t.face) {
-                    sides[c][j][k] = true;
-                }
-            }
-        }
-    }
-    sides
-        .iter()
-        .map(|s| s.iter().all(|&[a, b]| a && b))
+        .map(|c| {
+            c.edges.iter().all(|&e| {
+                required
+                    .edge
+                    .iter()
+                    .zip(&required.segments)
+                    .any(|(&k, &(a, b))| {
+                        k == e && (dist(a, c.position) <= tol || dist(b, c.position) <= tol)
+                    })
+            })
+        })
         .collect()
 }
 

@@ -683,8 +683,9 @@ fn corners_with_an_unseen_face_are_not_required() {
     let (scan, kept) = one_view_box(toward);
     let gt = &scan.ground_truth;
     let h = gt.spacing;
-    assert_eq!(seen::required_corners(gt, &scan.truth, h), vec![true; 8]);
-    let req = seen::required_corners(gt, &kept, h);
+    let whole = seen::required(gt, &scan.truth, h);
+    assert_eq!(seen::required_corners(gt, &whole, h), vec![true; 8]);
+    let req = seen::required_corners(gt, &seen::required(gt, &kept, h), h);
     let facing: Vec<bool> = gt
         .corners
         .iter()
