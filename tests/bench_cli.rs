@@ -247,25 +247,23 @@ fn unwritable_out_folder_fails_before_running() {
     assert!(t.elapsed().as_secs_f64() < 5.0);
 }
 
+/// Runs the bench with `args` and an empty data folder, writing `s.json` in `dir`: it must
+/// succeed (mesh cases are skipped with their reason, not an error). Returns stdout.
+fn bench_without_data(args: &[&str], dir: &Path) -> String {
+    let empty = dir.join("empty");
+    std::fs::create_dir_all(&empty).unwrap();
+    let mut all = args.to_vec();
+    all.extend(["--data", empty.to_str().unwrap(), "--out", "s.json"]);
+    let (ok, out, err) = bench(&all, dir);
+    assert!(ok, "{err}");
+    out
+}
+
 #[test]
 fn mesh_cases_run_or_are_skipped_with_a_note() {
     let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data");
     let dir = tempfile::tempdir().unwrap();
-    let empty = dir.path().join("empty");
-    std::fs::create_dir(&empty).unwrap();
-    // An empty data folder: the mesh case is skipped with its reason, not an error.
-    let (ok, out, err) = bench(
-        &[
-            "--cases",
-            "fandisk",
-            "--data",
-            empty.to_str().unwrap(),
-            "--out",
-            "s.json",
-        ],
-        dir.path(),
-    );
-    assert!(ok, "{err}");
+    let out = bench_without_data(&["--cases", "fandisk"], dir.path());
     assert!(out.contains("skipped fandisk: "), "{out}");
     assert!(out.contains("fandisk.off not found"), "{out}");
     let j = read_json(&dir.path().join("s.json"));
@@ -647,19 +645,7 @@ fn patterns_mode_scores_every_part_under_every_pattern() {
 #[test]
 fn cad_mode_runs_each_mesh_twice_or_skips_with_a_note() {
     let dir = tempfile::tempdir().unwrap();
-    let empty = dir.path().join("empty");
-    std::fs::create_dir(&empty).unwrap();
-    let (ok, out, err) = bench(
-        &[
-            "--cad",
-            "--data",
-            empty.to_str().unwrap(),
-            "--out",
-            "e.json",
-        ],
-        dir.path(),
-    );
-    assert!(ok, "{err}");
+    let out = bench_without_data(&["--cad"], dir.path());
     for name in [
         "fandisk-s0",
         "fandisk-s2",
@@ -671,6 +657,9 @@ fn cad_mode_runs_each_mesh_twice_or_skips_with_a_note() {
         assert!(out.contains(&format!("skipped {name}: ")), "{out}");
     }
     assert!(out.contains("joint.off not found"), "{out}");
+    let j = read_json(&dir.path().join("s.json"));
+    assert_eq!(j["cases"].as_array().unwrap().len(), 0);
+    assert_eq!(j["skipped"].as_array().unwrap().len(), 6);
 
     let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data");
     if !data.is_dir() {

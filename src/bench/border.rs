@@ -82,6 +82,19 @@ pub fn border_points(gt: &GroundTruth, truth: &[PointTruth], pitch: f64) -> Vec<
         .collect()
 }
 
+/// The places (noise-free) of the points flagged in `on_border`, as a set answering "is a
+/// border point within `reach`" for [`found_length_near`], and how many they are.
+pub fn border_set(truth: &[PointTruth], on_border: &[bool], reach: f64) -> (SegmentSet, usize) {
+    let places: Vec<(V3, V3)> = truth
+        .iter()
+        .zip(on_border)
+        .filter(|(_, b)| **b)
+        .map(|(t, _)| (t.surface, t.surface))
+        .collect();
+    let count = places.len();
+    (SegmentSet::new(places, reach), count)
+}
+
 /// The manifold edges of the sampled mesh whose faces' normals differ by more than flat but
 /// at most `sharp_deg` (the facet creases of a faceted curved patch), as segments (world).
 /// Empty for the sphere.

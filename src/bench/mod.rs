@@ -858,14 +858,7 @@ fn score_case(
     }
     if gt.params.scan.pattern == synth::Pattern::View {
         let on_border = border::border_points(gt, truth, pitch);
-        let places: Vec<(V3, V3)> = truth
-            .iter()
-            .zip(&on_border)
-            .filter(|(_, b)| **b)
-            .map(|(t, _)| (t.surface, t.surface))
-            .collect();
-        let count = places.len();
-        let near = SegmentSet::new(places, EDGE_TOL * h);
+        let (near, count) = border::border_set(truth, &on_border, EDGE_TOL * h);
         let on = border::found_length_near(&found, &near, &seen_edges, SAMPLE_STEP * h);
         r.border = Some(BorderMetrics {
             border_points: count,

@@ -772,13 +772,8 @@ fn one_view_borders_are_found_and_scored() {
 
     let req = seen::required(gt, &kept, h);
     let seen_set = SegmentSet::new(req.segments.clone(), EDGE_TOL * h);
-    let places: Vec<(V3, V3)> = kept
-        .iter()
-        .zip(&on)
-        .filter(|(_, b)| **b)
-        .map(|(t, _)| (t.surface, t.surface))
-        .collect();
-    let near = SegmentSet::new(places, EDGE_TOL * h);
+    let (near, count) = border::border_set(&kept, &on, EDGE_TOL * h);
+    assert_eq!(count, on.iter().filter(|&&b| b).count());
     let seen_edges: Vec<(V3, V3)> = req.segments.clone();
     assert_eq!(
         border::found_length_near(&seen_edges, &near, &seen_set, 0.1 * h),
