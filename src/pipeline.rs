@@ -20,6 +20,7 @@ use crate::stages::corners::{self, CornerFit};
 use crate::stages::edges::{self, EdgeError};
 use crate::stages::features::{self, Scale};
 use crate::stages::rectify;
+use crate::stages::scale;
 use crate::stages::segment;
 
 /// What a run did, for the summary screen (report.json has the full detail).
@@ -141,35 +142,46 @@ pub fn process(cloud: Cloud, settings: &Settings, clock: &mut impl LapClock) -> 
                 .into(),
         })?;
     check_not_collinear(&cloud, spacing)?;
-    let scale = features::estimate_scale(&cloud.positions, spacing, &settings.features, 20_000)
+    let local = scale::local_scale(&cloud.positions, spacing, &settings.features.scale_rules())
         .map_err(|e| in_file(&path, e))?;
+    let scale = local.summary();
     tracing::info!(
-        "spacing {:.6}, noise sigma {:.6} ({:.2} spacings), radius {:.6}",
+        "spacing {:.6}, noise sigma {:.6} ({:.2} spacings), radius {:.6} (medians of the local \
+         scale; radius from {:.6} to {:.6})",
         scale.spacing,
         scale.noise,
         scale.noise / scale.spacing,
-        scale.radius
+        scale.radius,
+        local.radius_quantile(0.0),
+        local.radius_quantile(1.0)
     );
     clock.lap("scale");
-    let grid = Grid::new(&cloud.positions, scale.radius).map_err(|e| in_file(&path, e))?;
+    // Cells as wide as nine radii in ten: the rest take the wider query.
+    let grid =
+        Grid::new(&cloud.positions, local.radius_quantile(0.9)).map_err(|e| in_file(&path, e))?;
     clock.lap("neighbours");
     let progress = Progress::start("features", cloud.len() as u64, "points");
     let features = features::features(
         &cloud.positions,
         &grid,
-        &scale,
+        &local,
         &settings.features,
         &progress,
     );
     drop(progress);
     clock.lap("features");
-    let mut segments = segment::segment(&cloud.positions, &features, &scale, &settings.segment);
+    // Edge runs are grown at the scale of the candidates (the points near edges), not of the
+    // whole cloud.
+    let run_scale = local
+        .around((0..cloud.len() as u32).filter(|&i| features.candidate[i as usize]))
+        .unwrap_or(scale);
+    let mut segments = segment::segment(&cloud.positions, &features, &run_scale, &settings.segment);
     clock.lap("segment");
     let surface = edges::Surface {
         positions: &cloud.positions,
         outlier: &features.outlier,
         grid: &grid,
-        scale: &scale,
+        scale: &local,
     };
     let mut fits = edges::fit_edges(
         &surface,
@@ -194,7 +206,7 @@ pub fn process(cloud: Cloud, settings: &Settings, clock: &mut impl LapClock) -> 
             &cloud.positions,
             segments,
             &not_edge,
-            &scale,
+            &run_scale,
             &settings.segment,
         );
         fits = edges::fit_edges(
@@ -257,7 +269,6 @@ pub fn process(cloud: Cloud, settings: &Settings, clock: &mut impl LapClock) -> 
         &geometry,
         &corner_list,
         &edge_of_run,
-        &scale,
         &settings.rectify,
     );
     clock.lap("rectify");

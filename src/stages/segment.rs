@@ -1154,7 +1154,7 @@ impl UnionFind {
 mod tests {
     use super::*;
     use crate::progress::Progress;
-    use crate::stages::features::{FeatureParams, estimate_scale, features};
+    use crate::stages::features::{FeatureParams, features};
     use crate::testdata::box_scan;
 
     /// A fixed rotation (not axis-aligned) so nothing lines up with the grid.
@@ -1190,9 +1190,10 @@ mod tests {
             .collect();
         let fp = FeatureParams::default();
         let spacing = crate::neighbours::mean_spacing(&pts, 20_000).unwrap();
-        let scale = estimate_scale(&pts, spacing, &fp, 20_000).unwrap();
+        let local = crate::stages::scale::local_scale(&pts, spacing, &fp.scale_rules()).unwrap();
+        let scale = local.summary();
         let grid = Grid::new(&pts, scale.radius).unwrap();
-        let f = features(&pts, &grid, &scale, &fp, &Progress::hidden());
+        let f = features(&pts, &grid, &local, &fp, &Progress::hidden());
         (segment(&pts, &f, &scale, &SegmentParams::default()), scale)
     }
 
