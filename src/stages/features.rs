@@ -298,7 +298,15 @@ mod tests {
         for (angle, sigma) in [(90.0, 0.15), (30.0, 0.15), (150.0, 0.15), (90.0, 1.0)] {
             let (pts, dist) = dihedral(angle, 1.0, sigma, 25.0, 5);
             let params = FeatureParams::default();
-            let (local, scale) = measured(&pts, &params);
+            // The scan's pitch is 1 (fully jittered: its mean nearest distance is 0.64); the
+            // noise as measured; the radius by the rules.
+            let noise = measured(&pts, &params).1.noise;
+            let scale = Scale {
+                spacing: 1.0,
+                noise,
+                radius: (4.0f64).max(6.0 * noise),
+            };
+            let local = LocalScale::uniform(pts.len(), scale);
             let grid = Grid::new(&pts, scale.radius).unwrap();
             let f = features(&pts, &grid, &local, &params, &Progress::hidden());
             // Away from the edge (and from the patch's own border) nothing is flagged. On a

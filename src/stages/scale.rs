@@ -25,11 +25,10 @@
 //!   parameters taken out: λ0·n/(n−3)).
 //! - Both are measured at one point per occupied cell of a grid 8 mean spacings wide (a few
 //!   percent of the points: the k-nearest queries would otherwise dominate the run) and
-//!   smoothed over the cells around it: the spacing by the median, the noise by the lower
-//!   quartile, because neighbourhoods straddling an edge read the edge's bend as noise and near
-//!   corners they are many (the quartile of a face's sigma estimates from 61 degrees of freedom
-//!   is 0.937 sigma; the factor below undoes it). Each point takes its cell's values: they
-//!   depend on the surface around it, not on what else was read.
+//!   smoothed over the cells around it by the median of the samples that lie on faces
+//!   (`on_faces`): a neighbourhood straddling an edge reads the bend as noise and its two
+//!   faces as a denser sampling. Each point takes its cell's values: they depend on the
+//!   surface around it, not on what else was read.
 //! - The **radius** is max(`min_radius` spacings, `noise_radius` sigmas, `normal_radius`
 //!   √(sigma·spacing) up to `noise_radius` spacings): the first two as the cloud-wide rule
 //!   was, the third keeping the
@@ -119,8 +118,6 @@ const SAMPLE_CELL: f64 = 8.0;
 /// (sigma 0.15 pitch: third sector distance 1.075 pitches, mean nearest distance 0.81; the
 /// test below checks it).
 const SECTOR_RATIO: f64 = 1.33;
-/// Lower quartile of sigma estimates from K − 3 degrees of freedom, as a share of sigma.
-const QUARTILE_BIAS: f64 = 0.937;
 
 impl LocalScale {
     /// One scale for `n` points (tests, and configs giving every length).
@@ -207,7 +204,7 @@ pub fn local_scale(
         .iter()
         .map(|b| cells.slot_ids(b.slots.clone())[0])
         .collect();
-    let raw: Vec<Option<(f64, f64)>> = samples
+    let raw: Vec<Option<Sample>> = samples
         .par_iter()
         .map(|&i| measure(positions, &tree, i as usize))
         .collect();
@@ -228,23 +225,15 @@ pub fn local_scale(
     let smooth: Vec<(f64, f64)> = (0..samples.len())
         .into_par_iter()
         .map(|s| {
-            let mut h = Vec::new();
-            let mut var = Vec::new();
+            let mut around: Vec<Sample> = Vec::new();
             sample_grid.for_each_within(sample_pos[s], reach, |j, _, _| {
-                if let Some((a, b)) = raw[j as usize] {
-                    h.push(a);
-                    var.push(b);
-                }
+                around.extend(raw[j as usize]);
             });
-            (quantile(&mut h, 0.5), quantile(&mut var, 0.25))
+            on_faces(&mut around)
         })
         .collect();
-    // Samples without a measurement of their own (and none around) take the cloud's median.
-    let fallback = {
-        let mut h: Vec<f64> = raw.iter().flatten().map(|r| r.0).collect();
-        let mut v: Vec<f64> = raw.iter().flatten().map(|r| r.1).collect();
-        (quantile(&mut h, 0.5), quantile(&mut v, 0.25))
-    };
+    // Samples without a measurement of their own (and none around) take the cloud's.
+    let fallback = on_faces(&mut raw.iter().flatten().copied().collect());
     let n = positions.len();
     let mut out = LocalScale {
         spacing: vec![0.0; n],
@@ -258,7 +247,7 @@ pub fn local_scale(
             fallback
         };
         let h = h / SECTOR_RATIO;
-        let sigma = params.noise.unwrap_or(var.sqrt() / QUARTILE_BIAS);
+        let sigma = params.noise.unwrap_or(var.sqrt());
         let radius = params.radius.unwrap_or_else(|| {
             (params.min_radius * h)
                 .max(params.noise_radius * sigma)
@@ -274,9 +263,39 @@ pub fn local_scale(
     Ok(out)
 }
 
-/// (spacing across the pattern before calibration, out-of-plane variance) at point `i`, from
-/// its K nearest distinct neighbours; `None` with fewer than 8 of them.
-fn measure(positions: &[[f64; 3]], tree: &KdTree, i: usize) -> Option<(f64, f64)> {
+/// What one sampled neighbourhood says.
+#[derive(Debug, Clone, Copy)]
+struct Sample {
+    /// Spacing across the pattern, before calibration.
+    spacing: f64,
+    /// Out-of-plane variance.
+    var: f64,
+    /// Surface variation λ0 / (λ0 + λ1 + λ2): noise alone on a face, more across an edge.
+    variation: f64,
+}
+
+/// Samples whose surface variation exceeds this many times the lower quartile of those
+/// around them straddle an edge, and are left out.
+const ON_FACE: f64 = 2.0;
+
+/// (median spacing, median variance) of the samples that lie on faces: those whose surface
+/// variation is at most [`ON_FACE`] times the lower quartile around them. A neighbourhood
+/// across an edge reads the bend as noise, and its two faces projected on one plane as a
+/// denser sampling; near a sharp wedge's apex most neighbourhoods do (on a 30° wedge, within
+/// nine spacings of it), and the quartile stays on the faces while a quarter of the samples
+/// around does. At high noise every sample's variation is the noise's and none is left out,
+/// and none needs to be. (NaN, NaN) without samples.
+fn on_faces(around: &mut Vec<Sample>) -> (f64, f64) {
+    let mut variation: Vec<f64> = around.iter().map(|s| s.variation).collect();
+    let limit = ON_FACE * quantile(&mut variation, 0.25);
+    around.retain(|s| s.variation <= limit);
+    let mut h: Vec<f64> = around.iter().map(|s| s.spacing).collect();
+    let mut var: Vec<f64> = around.iter().map(|s| s.var).collect();
+    (quantile(&mut h, 0.5), quantile(&mut var, 0.5))
+}
+
+/// What the K nearest distinct neighbours of point `i` say; `None` with fewer than 8 of them.
+fn measure(positions: &[[f64; 3]], tree: &KdTree, i: usize) -> Option<Sample> {
     let p = positions[i];
     let offsets: Vec<[f64; 3]> = tree
         .nearest(p, K + 1)
@@ -305,7 +324,16 @@ fn measure(positions: &[[f64; 3]], tree: &KdTree, i: usize) -> Option<(f64, f64)
         .copied()
         .filter(|&(x, y)| x * x + y * y > 0.0)
         .min_by(|a, b| (a.0 * a.0 + a.1 * a.1).total_cmp(&(b.0 * b.0 + b.1 * b.1)))?;
-    Some((sector_spacing(&in_plane, nearest.1.atan2(nearest.0))?, var))
+    let total = pca.eigenvalues.iter().sum::<f64>();
+    Some(Sample {
+        spacing: sector_spacing(&in_plane, nearest.1.atan2(nearest.0))?,
+        var,
+        variation: if total > 0.0 {
+            pca.eigenvalues[0] / total
+        } else {
+            0.0
+        },
+    })
 }
 
 /// The third smallest of the nearest distances in eight 45° sectors of the plane, the first
