@@ -541,7 +541,14 @@ pub fn mean_spacing(positions: &[[f64; 3]], max_samples: usize) -> Option<f64> {
     if positions.len() < 2 {
         return None;
     }
-    let tree = KdTree::new(positions).ok()?;
+    mean_spacing_in(&KdTree::new(positions).ok()?, positions, max_samples)
+}
+
+/// [`mean_spacing`] with a tree of `positions` built already.
+pub fn mean_spacing_in(tree: &KdTree, positions: &[[f64; 3]], max_samples: usize) -> Option<f64> {
+    if positions.len() < 2 {
+        return None;
+    }
     let step = positions.len().div_ceil(max_samples.max(1));
     let sample: Vec<usize> = (0..positions.len()).step_by(step).collect();
     let dists: Vec<f64> = sample

@@ -12,7 +12,7 @@ use crate::cloud::Cloud;
 use crate::config::Settings;
 use crate::error::{Error, Result};
 use crate::io;
-use crate::neighbours::{self, Grid};
+use crate::neighbours::{self, Grid, KdTree};
 use crate::outcome::{Outcome, Timing, describe};
 use crate::progress::Progress;
 use crate::report;
@@ -133,17 +133,25 @@ fn run_into(settings: &Settings, input: PathBuf, out_dir: &Path) -> Result<Summa
 pub fn process(cloud: Cloud, settings: &Settings, clock: &mut impl LapClock) -> Result<Outcome> {
     check_cloud(&cloud)?;
     let path = cloud.source.path.clone();
-    let spacing =
-        neighbours::mean_spacing(&cloud.positions, 50_000).ok_or_else(|| Error::BadCloud {
+    let tree = KdTree::new(&cloud.positions).map_err(|e| in_file(&path, e))?;
+    let spacing = neighbours::mean_spacing_in(&tree, &cloud.positions, 50_000).ok_or_else(|| {
+        Error::BadCloud {
             path: path.clone(),
             what: "cannot measure the point spacing: the sampled points have no distinct \
                    neighbour among their 256 nearest (hundreds of exact duplicates of every \
                    point?); remove the duplicates"
                 .into(),
-        })?;
+        }
+    })?;
     check_not_collinear(&cloud, spacing)?;
-    let local = scale::local_scale(&cloud.positions, spacing, &settings.features.scale_rules())
-        .map_err(|e| in_file(&path, e))?;
+    let local = scale::local_scale_in(
+        &tree,
+        &cloud.positions,
+        spacing,
+        &settings.features.scale_rules(),
+    )
+    .map_err(|e| in_file(&path, e))?;
+    drop(tree);
     let scale = local.summary();
     tracing::info!(
         "spacing {:.6}, noise sigma {:.6} ({:.2} spacings), radius {:.6} (medians of the local \
@@ -152,8 +160,8 @@ pub fn process(cloud: Cloud, settings: &Settings, clock: &mut impl LapClock) -> 
         scale.noise,
         scale.noise / scale.spacing,
         scale.radius,
-        local.radius_quantile(0.0),
-        local.radius_quantile(1.0)
+        local.radius.iter().copied().fold(f32::INFINITY, f32::min),
+        local.radius.iter().copied().fold(0.0, f32::max)
     );
     clock.lap("scale");
     // Cells as wide as nine radii in ten: the rest take the wider query.

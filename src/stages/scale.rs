@@ -14,7 +14,7 @@
 //! no face is seen) and the mean of dense and sparse parts elsewhere.
 //!
 //! How:
-//! - The **spacing** of a point is the spacing *across* the sampling pattern: its k = 64
+//! - The **spacing** of a point is the spacing *across* the sampling pattern: its k = 48
 //!   nearest neighbours are projected on their plane, the plane is cut in eight 45° sectors
 //!   starting at the nearest neighbour, and the spacing is the third smallest of the sectors'
 //!   nearest distances. Along a scan line the nearest neighbours lie in two opposite sectors;
@@ -23,9 +23,9 @@
 //!   half the sectors are empty and the rest still give it.
 //! - The **noise** is the out-of-plane sigma of those 64 neighbours (the plane's three
 //!   parameters taken out: λ0·n/(n−3)).
-//! - Both are measured at one point per occupied cell of a grid 8 mean spacings wide (a few
+//! - Both are measured at one point per occupied cell of a grid 10 mean spacings wide (a few
 //!   percent of the points: the k-nearest queries would otherwise dominate the run) and
-//!   smoothed over the cells around it by the median of the samples that lie on faces
+//!   smoothed over the cells around it (three wide) by the median of the samples that lie on faces
 //!   (`on_faces`): a neighbourhood straddling an edge reads the bend as noise and its two
 //!   faces as a denser sampling. Each point takes its cell's values: they depend on the
 //!   surface around it, not on what else was read.
@@ -108,9 +108,13 @@ pub struct LocalScale {
 }
 
 /// Neighbours of a sampled point whose plane and sectors give its spacing and noise.
-const K: usize = 64;
+const K: usize = 48;
 /// Sampling cells, in mean spacings.
-const SAMPLE_CELL: f64 = 8.0;
+const SAMPLE_CELL: f64 = 10.0;
+/// Samples within this many cells smooth each other: about 28 on a surface, which keeps the
+/// radii of a uniform scan within a few percent of each other (the features stage's grid is
+/// sized for the widest of nine in ten).
+const SMOOTH_CELLS: f64 = 3.0;
 /// Sector nearest distances measure the sampling pitch (1.01–1.12 pitches on jittered grids,
 /// noise or not), while the cloud-wide mean nearest distance every length in spacings was
 /// tuned with shrinks with the noise. Dividing by this ratio keeps the spacing, and so every
@@ -190,13 +194,23 @@ pub fn local_scale(
     spacing: f64,
     params: &ScaleRules,
 ) -> Result<LocalScale> {
+    local_scale_in(&KdTree::new(positions)?, positions, spacing, params)
+}
+
+/// [`local_scale`] with a tree of `positions` built already (the pipeline's, shared with the
+/// mean spacing: building it is a third of this stage on a million points).
+pub fn local_scale_in(
+    tree: &KdTree,
+    positions: &[[f64; 3]],
+    spacing: f64,
+    params: &ScaleRules,
+) -> Result<LocalScale> {
     if !(spacing.is_finite() && spacing > 0.0) {
         return Err(Error::Degenerate {
             what: "scale estimate",
             why: format!("mean spacing must be positive, got {spacing}"),
         });
     }
-    let tree = KdTree::new(positions)?;
     let cells = Grid::new(positions, SAMPLE_CELL * spacing)?;
     let blocks = cells.blocks();
     // One sample per occupied cell: its lowest id (cells list their points by id).
@@ -206,7 +220,7 @@ pub fn local_scale(
         .collect();
     let raw: Vec<Option<Sample>> = samples
         .par_iter()
-        .map(|&i| measure(positions, &tree, i as usize))
+        .map(|&i| measure(positions, tree, i as usize))
         .collect();
     if raw.iter().all(Option::is_none) {
         return Err(Error::Degenerate {
@@ -218,10 +232,10 @@ pub fn local_scale(
             ),
         });
     }
-    // Smoothing: the samples within two cells of each sample.
+    // Smoothing: the samples within SMOOTH_CELLS cells of each sample.
     let sample_pos: Vec<[f64; 3]> = samples.iter().map(|&i| positions[i as usize]).collect();
-    let sample_grid = Grid::new(&sample_pos, 2.0 * SAMPLE_CELL * spacing)?;
-    let reach = 2.0 * SAMPLE_CELL * spacing;
+    let sample_grid = Grid::new(&sample_pos, SMOOTH_CELLS * SAMPLE_CELL * spacing)?;
+    let reach = SMOOTH_CELLS * SAMPLE_CELL * spacing;
     let smooth: Vec<(f64, f64)> = (0..samples.len())
         .into_par_iter()
         .map(|s| {
