@@ -134,15 +134,16 @@ pub fn process(cloud: Cloud, settings: &Settings, clock: &mut impl LapClock) -> 
     check_cloud(&cloud)?;
     let path = cloud.source.path.clone();
     let tree = KdTree::new(&cloud.positions).map_err(|e| in_file(&path, e))?;
-    let spacing = neighbours::mean_spacing_in(&tree, &cloud.positions, 50_000).ok_or_else(|| {
-        Error::BadCloud {
-            path: path.clone(),
-            what: "cannot measure the point spacing: the sampled points have no distinct \
+    let spacing =
+        neighbours::mean_spacing_in(&tree, &cloud.positions, 50_000).ok_or_else(|| {
+            Error::BadCloud {
+                path: path.clone(),
+                what: "cannot measure the point spacing: the sampled points have no distinct \
                    neighbour among their 256 nearest (hundreds of exact duplicates of every \
                    point?); remove the duplicates"
-                .into(),
-        }
-    })?;
+                    .into(),
+            }
+        })?;
     check_not_collinear(&cloud, spacing)?;
     let local = scale::local_scale_in(
         &tree,
