@@ -21,7 +21,7 @@ use rayon::prelude::*;
 use crate::error::{Error, Result};
 
 /// Points bucketed in cubic cells of side `cell`. Radius queries with `r <= cell` look at the
-/// 27 cells around the query.
+/// 27 cells around the query, wider ones as many rings of cells as they need.
 pub struct Grid {
     origin: [f64; 3],
     cell: f64,
@@ -240,7 +240,8 @@ impl Grid {
     }
 
     /// [`Self::for_each_within`] for a query `q` inside `block`'s cell (one of its points),
-    /// using the block's slot ranges. Needs `r <= cell()`. Same calls in the same order.
+    /// using the block's slot ranges when `r <= cell()` (wider radii go through
+    /// [`Self::for_each_within`]). Same calls in the same order.
     #[inline]
     pub fn for_each_within_block(
         &self,
@@ -249,7 +250,9 @@ impl Grid {
         r: f64,
         mut f: impl FnMut(u32, [f64; 3], f64),
     ) {
-        debug_assert!(r <= self.cell * (1.0 + 1e-12));
+        if r > self.cell * (1.0 + 1e-12) {
+            return self.for_each_within(q, r, f);
+        }
         let ql = [
             q[0] - self.origin[0],
             q[1] - self.origin[1],
@@ -280,24 +283,33 @@ impl Grid {
     }
 
     /// Calls `f(id, offset, squared_distance)` for every point within `r` of `q` (inclusive),
-    /// where `offset` = point − q. Needs `r <= cell()`. The order of calls is fixed (cell
-    /// order, then point id), so accumulations are deterministic.
+    /// where `offset` = point − q. Any `r`: up to `cell()` the 27 cells around the query are
+    /// read, beyond it as many rings as `r` needs (local scale gives some points a radius
+    /// wider than the grid's cell). The order of calls is fixed (cell order, then point id),
+    /// so accumulations are deterministic.
     #[inline]
     pub fn for_each_within(&self, q: [f64; 3], r: f64, mut f: impl FnMut(u32, [f64; 3], f64)) {
-        debug_assert!(r <= self.cell * (1.0 + 1e-12));
         let ql = [
             q[0] - self.origin[0],
             q[1] - self.origin[1],
             q[2] - self.origin[2],
         ];
         let r2 = r * r;
+        let span = if r <= self.cell * (1.0 + 1e-12) {
+            1
+        } else {
+            (r / self.cell).ceil() as i64
+        };
         let c = [0, 1, 2].map(|k| (ql[k] / self.cell).floor() as i64);
-        let (x0, x1) = ((c[0] - 1).max(0), (c[0] + 1).min(self.dims[0] as i64 - 1));
+        let (x0, x1) = (
+            (c[0] - span).max(0),
+            (c[0] + span).min(self.dims[0] as i64 - 1),
+        );
         if x0 > x1 {
             return;
         }
-        for z in (c[2] - 1).max(0)..=(c[2] + 1).min(self.dims[2] as i64 - 1) {
-            for y in (c[1] - 1).max(0)..=(c[1] + 1).min(self.dims[1] as i64 - 1) {
+        for z in (c[2] - span).max(0)..=(c[2] + span).min(self.dims[2] as i64 - 1) {
+            for y in (c[1] - span).max(0)..=(c[1] + span).min(self.dims[1] as i64 - 1) {
                 let row = (z as u64 * self.dims[1] + y as u64) * self.dims[0];
                 let (a, b) = self.slots(row + x0 as u64, row + x1 as u64);
                 self.scan(a..b, ql, r2, &mut f);
@@ -529,7 +541,14 @@ pub fn mean_spacing(positions: &[[f64; 3]], max_samples: usize) -> Option<f64> {
     if positions.len() < 2 {
         return None;
     }
-    let tree = KdTree::new(positions).ok()?;
+    mean_spacing_in(&KdTree::new(positions).ok()?, positions, max_samples)
+}
+
+/// [`mean_spacing`] with a tree of `positions` built already.
+pub fn mean_spacing_in(tree: &KdTree, positions: &[[f64; 3]], max_samples: usize) -> Option<f64> {
+    if positions.len() < 2 {
+        return None;
+    }
     let step = positions.len().div_ceil(max_samples.max(1));
     let sample: Vec<usize> = (0..positions.len()).step_by(step).collect();
     let dists: Vec<f64> = sample
@@ -589,6 +608,27 @@ mod tests {
                 .chain(pts[..20].iter().copied())
             {
                 assert_eq!(grid.within(q, r), brute_within(&pts, q, r), "r={r} q={q:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn radius_wider_than_the_cell_matches_brute_force() {
+        // Local scale gives some points radii several cells wide; the block path must agree.
+        let pts = random_cloud(3000, 17, 10.0, 0.0);
+        let grid = Grid::new(&pts, 0.4).unwrap();
+        let blocks = grid.blocks();
+        for r in [0.39, 0.41, 1.3, 3.7] {
+            for q in random_cloud(30, 9, 12.0, -1.0) {
+                assert_eq!(grid.within(q, r), brute_within(&pts, q, r), "r={r} q={q:?}");
+            }
+            for block in blocks.iter().step_by(41) {
+                let i = grid.slot_ids(block.slots.clone())[0];
+                let q = pts[i as usize];
+                let mut got = Vec::new();
+                grid.for_each_within_block(block, q, r, |j, _, _| got.push(j));
+                got.sort_unstable();
+                assert_eq!(got, brute_within(&pts, q, r), "block query r={r}");
             }
         }
     }

@@ -12,7 +12,7 @@ use crate::cloud::Cloud;
 use crate::config::Settings;
 use crate::error::{Error, Result};
 use crate::io;
-use crate::neighbours::{self, Grid};
+use crate::neighbours::{self, Grid, KdTree};
 use crate::outcome::{Outcome, Timing, describe};
 use crate::progress::Progress;
 use crate::report;
@@ -20,6 +20,7 @@ use crate::stages::corners::{self, CornerFit};
 use crate::stages::edges::{self, EdgeError};
 use crate::stages::features::{self, Scale};
 use crate::stages::rectify;
+use crate::stages::scale;
 use crate::stages::segment;
 
 /// What a run did, for the summary screen (report.json has the full detail).
@@ -132,44 +133,64 @@ fn run_into(settings: &Settings, input: PathBuf, out_dir: &Path) -> Result<Summa
 pub fn process(cloud: Cloud, settings: &Settings, clock: &mut impl LapClock) -> Result<Outcome> {
     check_cloud(&cloud)?;
     let path = cloud.source.path.clone();
+    let tree = KdTree::new(&cloud.positions).map_err(|e| in_file(&path, e))?;
     let spacing =
-        neighbours::mean_spacing(&cloud.positions, 50_000).ok_or_else(|| Error::BadCloud {
-            path: path.clone(),
-            what: "cannot measure the point spacing: the sampled points have no distinct \
+        neighbours::mean_spacing_in(&tree, &cloud.positions, 50_000).ok_or_else(|| {
+            Error::BadCloud {
+                path: path.clone(),
+                what: "cannot measure the point spacing: the sampled points have no distinct \
                    neighbour among their 256 nearest (hundreds of exact duplicates of every \
                    point?); remove the duplicates"
-                .into(),
+                    .into(),
+            }
         })?;
     check_not_collinear(&cloud, spacing)?;
-    let scale = features::estimate_scale(&cloud.positions, spacing, &settings.features, 20_000)
-        .map_err(|e| in_file(&path, e))?;
+    let local = scale::local_scale_in(
+        &tree,
+        &cloud.positions,
+        spacing,
+        &settings.features.scale_rules(),
+    )
+    .map_err(|e| in_file(&path, e))?;
+    drop(tree);
+    let scale = local.summary();
     tracing::info!(
-        "spacing {:.6}, noise sigma {:.6} ({:.2} spacings), radius {:.6}",
+        "spacing {:.6}, noise sigma {:.6} ({:.2} spacings), radius {:.6} (medians of the local \
+         scale; radius from {:.6} to {:.6})",
         scale.spacing,
         scale.noise,
         scale.noise / scale.spacing,
-        scale.radius
+        scale.radius,
+        local.radius.iter().copied().fold(f32::INFINITY, f32::min),
+        local.radius.iter().copied().fold(0.0, f32::max)
     );
     clock.lap("scale");
-    let grid = Grid::new(&cloud.positions, scale.radius).map_err(|e| in_file(&path, e))?;
+    // Cells as wide as nine radii in ten: the rest take the wider query.
+    let grid =
+        Grid::new(&cloud.positions, local.radius_quantile(0.9)).map_err(|e| in_file(&path, e))?;
     clock.lap("neighbours");
     let progress = Progress::start("features", cloud.len() as u64, "points");
     let features = features::features(
         &cloud.positions,
         &grid,
-        &scale,
+        &local,
         &settings.features,
         &progress,
     );
     drop(progress);
     clock.lap("features");
-    let mut segments = segment::segment(&cloud.positions, &features, &scale, &settings.segment);
+    // Edge runs are grown at the scale of the candidates (the points near edges), not of the
+    // whole cloud.
+    let run_scale = local
+        .around((0..cloud.len() as u32).filter(|&i| features.candidate[i as usize]))
+        .unwrap_or(scale);
+    let mut segments = segment::segment(&cloud.positions, &features, &run_scale, &settings.segment);
     clock.lap("segment");
     let surface = edges::Surface {
         positions: &cloud.positions,
         outlier: &features.outlier,
         grid: &grid,
-        scale: &scale,
+        scale: &local,
     };
     let mut fits = edges::fit_edges(
         &surface,
@@ -194,7 +215,7 @@ pub fn process(cloud: Cloud, settings: &Settings, clock: &mut impl LapClock) -> 
             &cloud.positions,
             segments,
             &not_edge,
-            &scale,
+            &run_scale,
             &settings.segment,
         );
         fits = edges::fit_edges(
@@ -257,7 +278,6 @@ pub fn process(cloud: Cloud, settings: &Settings, clock: &mut impl LapClock) -> 
         &geometry,
         &corner_list,
         &edge_of_run,
-        &scale,
         &settings.rectify,
     );
     clock.lap("rectify");

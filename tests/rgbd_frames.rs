@@ -118,6 +118,17 @@ fn bench_frames_writes_scores_and_figures() {
             assert!(e["one_edge"].as_f64().unwrap() <= c + 1e-12);
         }
     }
+    // Issue 17: with the local scale, the normal-noise radius rule and the fillet limit that
+    // grows with the noise, the near box's edge between its faces and both edges where a box
+    // stands on the table are found over 90 % of their length as one edge (measured 96–100 %;
+    // with the cloud-wide scale 26 %, 97 % and 81 %). The far, half-hidden box's 50 mm edge
+    // is not asserted: found over 94–98 % or not at all as the sampling of the scale changes.
+    let box_edges = frames[0]["score"]["edges"].as_array().unwrap();
+    for e in box_edges {
+        if e["edge"]["kind"] == "base_edge" || e["edge"]["labels"][0] == 20 {
+            assert!(e["one_edge"].as_f64().unwrap() >= 0.9, "{e}");
+        }
+    }
     for name in ["box.svg", "stacked_boxes.svg"] {
         let svg = std::fs::read_to_string(figs.join(name)).unwrap();
         assert!(

@@ -22,6 +22,7 @@
 pub mod eigen3;
 pub mod linalg;
 pub mod lines;
+pub mod moments;
 pub mod polyline;
 pub mod triangles;
 pub mod vec;

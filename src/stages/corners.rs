@@ -120,8 +120,14 @@ fn fit_vertex(
     fit: &FitParams,
     rng: &mut SmallRng,
 ) -> CornerOutcome {
-    let scale = surface.scale;
     let vertex = &segments.vertices[v];
+    // The scale of the surface the corner's edges run through.
+    let scale = &surface.scale_around(
+        vertex
+            .ends
+            .iter()
+            .flat_map(|&(run, _)| segments.runs[run].points.iter().copied()),
+    );
     let approx = vertex.position;
     let reach = params.reach * scale.radius;
     let mut sides: Vec<Vec<[f64; 3]>> = Vec::new();

@@ -1,13 +1,13 @@
 //! Per-point local shape: noise level, neighbourhood scale, PCA normal, sharpness score and the
 //! candidate edge points.
 //!
-//! Inputs: positions, the cloud's mean spacing, `FeatureParams`. Outputs: `Scale` (spacing,
-//! estimated noise sigma, neighbourhood radius) and `Features` (side arrays by point id).
+//! Inputs: positions, the neighbour grid, each point's `LocalScale` (spacing, noise sigma,
+//! radius: `stages::scale`), `FeatureParams`. Outputs: `Features` (side arrays by point id).
 //!
 //! Why these scores: surface variation λ0/(λ0+λ1+λ2) at a fixed k is swamped by noise once
 //! sigma approaches the spacing (CRATES.md: best F1 0.34 at k = 16). Here the noise sigma is
-//! measured from the data first (the median out-of-plane spread of neighbourhoods, almost all
-//! on faces), and the neighbourhood radius is made several sigmas wide. Two scores follow:
+//! measured from the data first (each point's own, `stages::scale`), and each neighbourhood
+//! radius is made several sigmas and spacings wide. Two scores follow:
 //! - `sharpness` = λ0 / σ²: the neighbourhood's out-of-plane variance in noise variances, ≈ 1 on
 //!   a face. Across an edge whose normals differ by θ it is ≈ 0.07·sin²(θ/2)·(r/σ)² + 1, which
 //!   is strong at the apex of sharp wedges but weak for obtuse edges or heavy noise.
@@ -23,10 +23,10 @@
 use rayon::prelude::*;
 
 use crate::geometry::eigen3;
-
-use crate::error::{Error, Result};
+pub use crate::geometry::moments::{LocalPca, add_moments, pca_from_moments};
 use crate::neighbours::{Block, Grid};
 use crate::progress::Progress;
+pub use crate::stages::scale::{LocalScale, NORMAL_RADIUS, Scale, ScaleRules};
 
 /// Settings of the features stage (validated by `config`).
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
@@ -40,6 +40,9 @@ pub struct FeatureParams {
     pub min_radius: f64,
     /// Automatic radius in noise sigmas (when larger than `min_radius` spacings).
     pub noise_radius: f64,
+    /// Automatic radius in √(sigma·spacing) (when larger than the two above): see
+    /// `ScaleRules::normal_radius`.
+    pub normal_radius: f64,
     /// A point is a candidate when its sharpness (λ0 / σ²) exceeds this...
     pub threshold: f64,
     /// ...or when its normal split exceeds this (≈ a(1−a)·sin²θ; 0.008 is a 30° normal change
@@ -51,6 +54,19 @@ pub struct FeatureParams {
     pub outlier_share: f64,
 }
 
+impl FeatureParams {
+    /// The rules the scale stage sizes neighbourhoods by.
+    pub fn scale_rules(&self) -> ScaleRules {
+        ScaleRules {
+            radius: self.radius,
+            noise: self.noise,
+            min_radius: self.min_radius,
+            noise_radius: self.noise_radius,
+            normal_radius: self.normal_radius,
+        }
+    }
+}
+
 impl Default for FeatureParams {
     fn default() -> Self {
         FeatureParams {
@@ -58,23 +74,13 @@ impl Default for FeatureParams {
             noise: None,
             min_radius: 4.0,
             noise_radius: 6.0,
+            normal_radius: NORMAL_RADIUS,
             threshold: 3.0,
             split_threshold: 0.008,
             split_noise_factor: 15.0,
             outlier_share: 0.2,
         }
     }
-}
-
-/// The length scales of a scan, measured or given.
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
-pub struct Scale {
-    /// Mean distance to the nearest distinct neighbour.
-    pub spacing: f64,
-    /// Noise sigma perpendicular to the surface.
-    pub noise: f64,
-    /// Neighbourhood radius used for the features.
-    pub radius: f64,
 }
 
 /// Per-point outputs of the features stage, indexed by point id.
@@ -102,18 +108,6 @@ pub struct Features {
     pub split_threshold: f32,
 }
 
-/// Covariance summary of one neighbourhood.
-#[derive(Debug, Clone, Copy)]
-pub struct LocalPca {
-    pub count: u32,
-    /// Eigenvalues ascending.
-    pub eigenvalues: [f64; 3],
-    /// Unit eigenvector of the smallest eigenvalue: the normal of the best plane.
-    pub normal: [f64; 3],
-    /// Centroid offset from the query point.
-    pub centroid: [f64; 3],
-}
-
 /// PCA of the points within `r` of `q`. `None` with fewer than 3 neighbours.
 pub fn local_pca(grid: &Grid, q: [f64; 3], r: f64) -> Option<LocalPca> {
     let mut m = [0.0f64; 10];
@@ -121,132 +115,25 @@ pub fn local_pca(grid: &Grid, q: [f64; 3], r: f64) -> Option<LocalPca> {
     pca_from_moments(&m)
 }
 
-/// Adds an offset to the raw moments [n, Σx, Σy, Σz, Σxx, Σxy, Σxz, Σyy, Σyz, Σzz].
-#[inline]
-pub fn add_moments(m: &mut [f64; 10], d: [f64; 3]) {
-    m[0] += 1.0;
-    m[1] += d[0];
-    m[2] += d[1];
-    m[3] += d[2];
-    m[4] += d[0] * d[0];
-    m[5] += d[0] * d[1];
-    m[6] += d[0] * d[2];
-    m[7] += d[1] * d[1];
-    m[8] += d[1] * d[2];
-    m[9] += d[2] * d[2];
-}
-
 /// Cells per unit of parallel work: a few thousand points.
 const BLOCK_CHUNK: usize = 256;
 
-/// PCA from raw moments [n, Σx, Σy, Σz, Σxx, Σxy, Σxz, Σyy, Σyz, Σzz] (offsets from the query,
-/// so the subtraction of the mean loses no precision at georeferenced magnitudes).
-pub fn pca_from_moments(m: &[f64; 10]) -> Option<LocalPca> {
-    let n = m[0];
-    if n < 3.0 {
-        return None;
-    }
-    let c = [m[1] / n, m[2] / n, m[3] / n];
-    let cov = [
-        m[4] / n - c[0] * c[0],
-        m[5] / n - c[0] * c[1],
-        m[6] / n - c[0] * c[2],
-        m[7] / n - c[1] * c[1],
-        m[8] / n - c[1] * c[2],
-        m[9] / n - c[2] * c[2],
-    ];
-    let (values, normal) = eigen3::smallest(&cov)?;
-    Some(LocalPca {
-        count: n as u32,
-        eigenvalues: values.map(|v| v.max(0.0)),
-        normal,
-        centroid: c,
-    })
-}
-
-/// Measures the noise sigma and chooses the neighbourhood radius (see the module comment).
-/// `spacing` is the cloud's mean spacing. Uses an evenly spread subsample of at most
-/// `max_samples` points.
-pub fn estimate_scale(
-    positions: &[[f64; 3]],
-    spacing: f64,
-    params: &FeatureParams,
-    max_samples: usize,
-) -> Result<Scale> {
-    if !(spacing.is_finite() && spacing > 0.0) {
-        return Err(Error::Degenerate {
-            what: "scale estimate",
-            why: format!("mean spacing must be positive, got {spacing}"),
-        });
-    }
-    let noise = match params.noise {
-        Some(s) => s,
-        None => {
-            // Two passes: the first radius only needs to see a plane; the second is the
-            // working radius, where the estimate has more points.
-            let r0 = params.min_radius * spacing;
-            let s0 = noise_at(positions, r0, max_samples)?;
-            let r1 = (params.noise_radius * s0).max(r0);
-            if r1 > r0 * 1.05 {
-                noise_at(positions, r1, max_samples)?
-            } else {
-                s0
-            }
-        }
-    };
-    let radius = params
-        .radius
-        .unwrap_or_else(|| (params.min_radius * spacing).max(params.noise_radius * noise));
-    Ok(Scale {
-        spacing,
-        noise,
-        radius,
-    })
-}
-
-/// Median out-of-plane sigma of radius-`r` neighbourhoods over a subsample.
-fn noise_at(positions: &[[f64; 3]], r: f64, max_samples: usize) -> Result<f64> {
-    let grid = Grid::new(positions, r)?;
-    let step = positions.len().div_ceil(max_samples.max(1));
-    let mut vars: Vec<f64> = (0..positions.len())
-        .into_par_iter()
-        .step_by(step)
-        .filter_map(|i| {
-            let pca = local_pca(&grid, positions[i], r)?;
-            // n/(n-3): the plane's three parameters were fitted to the same points.
-            (pca.count >= 8).then(|| {
-                let n = f64::from(pca.count);
-                pca.eigenvalues[0] * n / (n - 3.0)
-            })
-        })
-        .collect();
-    if vars.is_empty() {
-        return Err(Error::Degenerate {
-            what: "noise estimate",
-            why: format!(
-                "no point has 8 neighbours within {r:.4}; the cloud is too sparse for its spacing"
-            ),
-        });
-    }
-    let mid = vars.len() / 2;
-    let (_, median, _) = vars.select_nth_unstable_by(mid, f64::total_cmp);
-    Ok(median.sqrt())
-}
-
-/// Computes the per-point features with the neighbourhood radius of `scale`. `grid` must have
-/// cells at least `scale.radius` wide.
+/// Computes the per-point features, each point with its own radius and noise from `scale`.
+/// Any grid works; cells about as wide as most radii are fastest.
 pub fn features(
     positions: &[[f64; 3]],
     grid: &Grid,
-    scale: &Scale,
+    scale: &LocalScale,
     params: &FeatureParams,
     progress: &Progress,
 ) -> Features {
     let n = positions.len();
-    let r = scale.radius;
     // Noise floor: never divide by less than a millionth of the spacing squared, so a
     // noise-free synthetic scan still gets finite scores.
-    let var = (scale.noise * scale.noise).max(1e-6 * scale.spacing * scale.spacing);
+    let var_of = |i: usize| {
+        let (s, h) = (f64::from(scale.noise[i]), f64::from(scale.spacing[i]));
+        (s * s).max(1e-6 * h * h)
+    };
     // Work cell by cell, in the grid's spatial order (cache locality, and the 27 cells around
     // a cell found once for all its points); write back by id.
     let blocks = grid.blocks();
@@ -264,6 +151,8 @@ pub fn features(
             for block in blocks {
                 for &i in grid.slot_ids(block.slots.clone()) {
                     let q = positions[i as usize];
+                    let r = f64::from(scale.radius[i as usize]);
+                    let var = var_of(i as usize);
                     let mut m = [0.0f64; 10];
                     grid.for_each_within_block(block, q, r, |_, d, _| add_moments(&mut m, d));
                     rows.push(match pca_from_moments(&m) {
@@ -305,6 +194,7 @@ pub fn features(
             let mut rows = Vec::new();
             for block in blocks {
                 for &i in grid.slot_ids(block.slots.clone()) {
+                    let r = f64::from(scale.radius[i as usize]);
                     let (t, d) = normal_tensor(grid, block, &normal, positions[i as usize], r);
                     rows.push((i, t[1] as f32, d.map(|c| c as f32), t[0] as f32));
                 }
@@ -326,6 +216,10 @@ pub fn features(
         .split_threshold
         .max(params.split_noise_factor * f64::from(split_floor)) as f32;
     let plane_threshold = params.threshold as f32;
+    tracing::debug!(
+        "features: median split {split_floor:.5}, split threshold {split_threshold:.5}, \
+         median count {median_count}, outlier below {min_count}"
+    );
     let outlier: Vec<bool> = count.iter().map(|&c| c < min_count).collect();
     let candidate: Vec<bool> = (0..n)
         .map(|i| !outlier[i] && (split[i] > split_threshold || sharpness[i] > plane_threshold))
@@ -392,15 +286,11 @@ mod tests {
     use super::*;
     use crate::testdata::dihedral;
 
-    #[test]
-    fn noise_estimate_recovers_sigma() {
-        for sigma in [0.05, 0.15, 0.5, 1.0] {
-            let (pts, _) = dihedral(90.0, 1.0, sigma, 30.0, 3);
-            let scale = estimate_scale(&pts, 1.0, &FeatureParams::default(), 20_000).unwrap();
-            let rel = (scale.noise - sigma).abs() / sigma;
-            assert!(rel < 0.15, "sigma {sigma}: estimated {}", scale.noise);
-            assert!(scale.radius >= 4.0 && scale.radius >= 6.0 * scale.noise * 0.999);
-        }
+    fn measured(pts: &[[f64; 3]], params: &FeatureParams) -> (LocalScale, Scale) {
+        let s = crate::neighbours::mean_spacing(pts, 50_000).unwrap();
+        let local = crate::stages::scale::local_scale(pts, s, &params.scale_rules()).unwrap();
+        let summary = local.summary();
+        (local, summary)
     }
 
     #[test]
@@ -408,9 +298,17 @@ mod tests {
         for (angle, sigma) in [(90.0, 0.15), (30.0, 0.15), (150.0, 0.15), (90.0, 1.0)] {
             let (pts, dist) = dihedral(angle, 1.0, sigma, 25.0, 5);
             let params = FeatureParams::default();
-            let scale = estimate_scale(&pts, 1.0, &params, 20_000).unwrap();
+            // The scan's pitch is 1 (fully jittered: its mean nearest distance is 0.64); the
+            // noise as measured; the radius by the rules.
+            let noise = measured(&pts, &params).1.noise;
+            let scale = Scale {
+                spacing: 1.0,
+                noise,
+                radius: (4.0f64).max(6.0 * noise),
+            };
+            let local = LocalScale::uniform(pts.len(), scale);
             let grid = Grid::new(&pts, scale.radius).unwrap();
-            let f = features(&pts, &grid, &scale, &params, &Progress::hidden());
+            let f = features(&pts, &grid, &local, &params, &Progress::hidden());
             // Away from the edge (and from the patch's own border) nothing is flagged. On a
             // sharp wedge the other face is only s·sin(angle) away from a point at distance s.
             let gap = if angle < 90.0 {
@@ -450,11 +348,14 @@ mod tests {
     #[test]
     fn normals_of_a_plane_are_its_normal() {
         let (pts, dist) = dihedral(90.0, 1.0, 0.0, 20.0, 9);
-        let scale = Scale {
-            spacing: 1.0,
-            noise: 0.0,
-            radius: 4.0,
-        };
+        let scale = LocalScale::uniform(
+            pts.len(),
+            Scale {
+                spacing: 1.0,
+                noise: 0.0,
+                radius: 4.0,
+            },
+        );
         let grid = Grid::new(&pts, 4.0).unwrap();
         let f = features(
             &pts,
@@ -479,17 +380,10 @@ mod tests {
         let (mut pts, _) = dihedral(180.0, 1.0, 0.1, 20.0, 2);
         pts.push([10.0, 20.0, 50.0]);
         let params = FeatureParams::default();
-        let scale = estimate_scale(&pts, 1.0, &params, 20_000).unwrap();
+        let (local, scale) = measured(&pts, &params);
         let grid = Grid::new(&pts, scale.radius).unwrap();
-        let f = features(&pts, &grid, &scale, &params, &Progress::hidden());
+        let f = features(&pts, &grid, &local, &params, &Progress::hidden());
         let last = pts.len() - 1;
         assert!(f.outlier[last] && !f.candidate[last]);
-    }
-
-    #[test]
-    fn pca_needs_three_points() {
-        let mut m = [0.0; 10];
-        m[0] = 2.0;
-        assert!(pca_from_moments(&m).is_none());
     }
 }

@@ -1,8 +1,9 @@
 //! The pipeline's stages, one plain function from typed input to typed output each, in the
-//! order `crate::pipeline` runs them: features (per-point PCA, sharpness, candidate edge
-//! points) -> segment (edge runs and the vertices where they meet) -> edges (the paper's
-//! constrained 2D fit per slab across each edge) -> corners (the constrained 3D fit per
-//! vertex) -> rectify (abnormal points moved onto the fitted faces).
+//! order `crate::pipeline` runs them: scale (each point's spacing, noise and radius) ->
+//! features (per-point PCA, sharpness, candidate edge points) -> segment (edge runs and the
+//! vertices where they meet) -> edges (the paper's constrained 2D fit per slab across each
+//! edge) -> corners (the constrained 3D fit per vertex) -> rectify (abnormal points moved onto
+//! the fitted faces).
 //!
 //! Stages use the layers below them (geometry, fit, neighbours, cloud) and the stages before
 //! them, never the pipeline, the writers or a later stage.
@@ -11,4 +12,5 @@ pub mod corners;
 pub mod edges;
 pub mod features;
 pub mod rectify;
+pub mod scale;
 pub mod segment;

@@ -2,7 +2,7 @@
 //! other point keeps its coordinates bit for bit.
 //!
 //! Inputs: positions, the `EdgeFit`s (their slabs' abnormal zones and face traces), the final
-//! `EdgeGeometry`, the fitted corners and their edges, `Scale`, `RectifyParams`. Outputs: the
+//! `EdgeGeometry`, the fitted corners and their edges, `RectifyParams` (lengths in each edge's own scale). Outputs: the
 //! rectified positions (a copy of the input where nothing moved), a moved flag and an edge
 //! label per point.
 //!
@@ -16,8 +16,7 @@
 use crate::geometry::{add, cross, dot, norm, sub};
 use crate::neighbours::Grid;
 use crate::stages::corners::{CornerFit, EdgeGeometry};
-use crate::stages::edges::{EdgeResult, mean_faces};
-use crate::stages::features::Scale;
+use crate::stages::edges::{EdgeFit, EdgeResult, mean_faces};
 
 /// Settings of the rectify stage (validated by `config`).
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
@@ -63,7 +62,6 @@ pub fn rectify(
     geometry: &[Option<EdgeGeometry>],
     corners: &[CornerFit],
     edge_of_run: &[Option<u32>],
-    scale: &Scale,
     params: &RectifyParams,
 ) -> Rectified {
     let mut out = Rectified {
@@ -71,10 +69,10 @@ pub fn rectify(
         moved: vec![false; positions.len()],
         label: vec![u32::MAX; positions.len()],
     };
-    let max_move = params.max_move * scale.radius;
-    // A point's position along its face is itself noisy by about σ: a fillet point near the
-    // tangent reads as farther out.
-    let zone_margin = params.zone_margin * scale.spacing + scale.noise;
+    // Lengths in each edge's own scale (see `EdgeFit::scale`). A point's position along its
+    // face is itself noisy by about σ: a fillet point near the tangent reads as farther out.
+    let max_move_of = |e: &EdgeFit| params.max_move * e.scale.radius;
+    let zone_margin_of = |e: &EdgeFit| params.zone_margin * e.scale.spacing + e.scale.noise;
     // Mean face traces per edge: a straight edge's faces are the same along it, and the mean
     // over slabs is far steadier than one slab's local fit.
     let mut faces_of: Vec<Option<[[f64; 3]; 2]>> = vec![None; edges.len()];
@@ -86,6 +84,7 @@ pub fn rectify(
         let Some(id) = edge_of_run[k] else { continue };
         faces_of[k] = mean_faces(&e.slabs);
         // How far from the edge its scan leaves the faces: the measured zone and margin.
+        let (scale, max_move, zone_margin) = (e.scale, max_move_of(e), zone_margin_of(e));
         reach_of[k] = e.zone + zone_margin;
         for s in &e.slabs {
             let faces = if e.straight {
@@ -131,7 +130,15 @@ pub fn rectify(
             })
             .collect();
         let zone = incident.iter().map(|&k| reach_of[k]).fold(0.0, f64::max);
-        let radius = 2.5 * scale.radius + zone;
+        let widest = |f: &dyn Fn(&EdgeFit) -> f64| {
+            incident
+                .iter()
+                .filter_map(|&k| edges[k].as_ref().ok())
+                .map(f)
+                .fold(0.0, f64::max)
+        };
+        let radius = 2.5 * widest(&|e| e.scale.radius) + zone;
+        let max_move = widest(&max_move_of);
         let mut planes: Vec<([f64; 3], [f64; 3])> = Vec::new(); // (point, unit normal)
         for &k in &incident {
             let (Some(g), Some(faces)) = (&geometry[k], faces_of[k]) else {

@@ -1,0 +1,91 @@
+//! Moments of point offsets and the plane they fit (PCA): the one covariance routine behind
+//! the features stage's normals, the local scale's noise and the bench's reference faces.
+//!
+//! Inputs: offsets from a query point (so the subtraction of the mean loses no precision at
+//! georeferenced magnitudes). Outputs: raw moments and `LocalPca` (count, eigenvalues, normal,
+//! centroid).
+
+use crate::geometry::eigen3;
+
+/// Covariance summary of one neighbourhood.
+#[derive(Debug, Clone, Copy)]
+pub struct LocalPca {
+    pub count: u32,
+    /// Eigenvalues ascending.
+    pub eigenvalues: [f64; 3],
+    /// Unit eigenvector of the smallest eigenvalue: the normal of the best plane.
+    pub normal: [f64; 3],
+    /// Centroid offset from the query point.
+    pub centroid: [f64; 3],
+}
+
+/// Adds an offset to the raw moments [n, Σx, Σy, Σz, Σxx, Σxy, Σxz, Σyy, Σyz, Σzz].
+#[inline]
+pub fn add_moments(m: &mut [f64; 10], d: [f64; 3]) {
+    m[0] += 1.0;
+    m[1] += d[0];
+    m[2] += d[1];
+    m[3] += d[2];
+    m[4] += d[0] * d[0];
+    m[5] += d[0] * d[1];
+    m[6] += d[0] * d[2];
+    m[7] += d[1] * d[1];
+    m[8] += d[1] * d[2];
+    m[9] += d[2] * d[2];
+}
+
+/// PCA from raw moments [n, Σx, Σy, Σz, Σxx, Σxy, Σxz, Σyy, Σyz, Σzz] (offsets from the query,
+/// so the subtraction of the mean loses no precision at georeferenced magnitudes).
+pub fn pca_from_moments(m: &[f64; 10]) -> Option<LocalPca> {
+    let n = m[0];
+    if n < 3.0 {
+        return None;
+    }
+    let c = [m[1] / n, m[2] / n, m[3] / n];
+    let cov = [
+        m[4] / n - c[0] * c[0],
+        m[5] / n - c[0] * c[1],
+        m[6] / n - c[0] * c[2],
+        m[7] / n - c[1] * c[1],
+        m[8] / n - c[1] * c[2],
+        m[9] / n - c[2] * c[2],
+    ];
+    let (values, normal) = eigen3::smallest(&cov)?;
+    Some(LocalPca {
+        count: n as u32,
+        eigenvalues: values.map(|v| v.max(0.0)),
+        normal,
+        centroid: c,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn pca_needs_three_points() {
+        let mut m = [0.0; 10];
+        m[0] = 2.0;
+        assert!(pca_from_moments(&m).is_none());
+    }
+
+    #[test]
+    fn pca_of_a_tilted_plane_is_its_normal() {
+        let n = [0.0, 0.6, 0.8];
+        let mut m = [0.0; 10];
+        for a in -3..=3 {
+            for b in -3..=3 {
+                let (u, v) = ([1.0, 0.0, 0.0], [0.0, 0.8, -0.6]);
+                let (a, b) = (f64::from(a), f64::from(b));
+                add_moments(&mut m, [0, 1, 2].map(|k| a * u[k] + b * v[k] + 2.0 * n[k]));
+            }
+        }
+        let p = pca_from_moments(&m).unwrap();
+        assert_eq!(p.count, 49);
+        assert!(p.eigenvalues[0].abs() < 1e-12);
+        let c = (0..3).map(|k| p.normal[k] * n[k]).sum::<f64>();
+        assert!((c.abs() - 1.0).abs() < 1e-12);
+        assert!((p.centroid[2] - 1.6).abs() < 1e-12);
+    }
+}

@@ -1,0 +1,524 @@
+//! Local scale: each point's own spacing, noise sigma and neighbourhood radius, measured from
+//! its neighbourhood (DESIGN.md, "Scale is local").
+//!
+//! Inputs: positions, the cloud's mean nearest-neighbour distance (only to size the sampling
+//! cells) and `ScaleRules` (radius and noise overrides, the radius rule; the features stage's
+//! settings give them). Outputs:
+//! `LocalScale`, three side arrays by point id and the cloud-wide medians as a summary
+//! `Scale` that no decision depends on.
+//!
+//! Why local: real scans are not uniform. A line scanner is 3–10x denser along its lines than
+//! across them, structured light samples a grid whose pitch grows with the incidence, views
+//! overlap, and an RGB-D frame's density falls with the square of the depth. One cloud-wide
+//! spacing is the along-line distance on scan lines (every neighbourhood is then a line and
+//! no face is seen) and the mean of dense and sparse parts elsewhere.
+//!
+//! How:
+//! - The **spacing** of a point is the spacing *across* the sampling pattern: its k = 48
+//!   nearest neighbours are projected on their plane, the plane is cut in eight 45° sectors
+//!   starting at the nearest neighbour, and the spacing is the third smallest of the sectors'
+//!   nearest distances. Along a scan line the nearest neighbours lie in two opposite sectors;
+//!   the third smallest is the distance to the next line. On a pixel grid it is the larger
+//!   pitch; on uniform sampling about the mean spacing (calibrated below); at a scan border
+//!   half the sectors are empty and the rest still give it.
+//! - The **noise** is the out-of-plane sigma of those 64 neighbours (the plane's three
+//!   parameters taken out: λ0·n/(n−3)).
+//! - Both are measured at one point per occupied cell of a grid 10 mean spacings wide (a few
+//!   percent of the points: the k-nearest queries would otherwise dominate the run) and
+//!   smoothed over the cells around it (three wide) by the median of the samples that lie on faces
+//!   (`on_faces`): a neighbourhood straddling an edge reads the bend as noise and its two
+//!   faces as a denser sampling. Each point takes its cell's values: they depend on the
+//!   surface around it, not on what else was read.
+//! - The **radius** is max(`min_radius` spacings, `noise_radius` sigmas, `normal_radius`
+//!   √(sigma·spacing) up to `noise_radius` spacings): the first two as the cloud-wide rule
+//!   was, the third keeping the
+//!   normals steady where the noise is a large share of the spacing (see [`NORMAL_RADIUS`]).
+//!   A radius or noise given in the config replaces the measured one everywhere.
+
+use rayon::prelude::*;
+
+use crate::error::{Error, Result};
+use crate::geometry::moments::{add_moments, pca_from_moments};
+use crate::geometry::{dot, perp_basis};
+use crate::neighbours::{Grid, KdTree};
+
+/// The length scales of a scan, measured or given: one point's, one edge's or (as a summary)
+/// the cloud's medians.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct Scale {
+    /// Spacing across the sampling pattern (on uniform sampling the mean distance to the
+    /// nearest distinct neighbour).
+    pub spacing: f64,
+    /// Noise sigma perpendicular to the surface.
+    pub noise: f64,
+    /// Neighbourhood radius used for the features.
+    pub radius: f64,
+}
+
+/// How lengths follow from the measurement: given values replace measured ones.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ScaleRules {
+    /// Neighbourhood radius in model units; `None` = max(`min_radius` spacings,
+    /// `noise_radius` sigmas).
+    pub radius: Option<f64>,
+    /// Noise sigma in model units; `None` = measured.
+    pub noise: Option<f64>,
+    /// Smallest automatic radius, in spacings.
+    pub min_radius: f64,
+    /// Automatic radius in noise sigmas (when larger than `min_radius` spacings).
+    pub noise_radius: f64,
+    /// Automatic radius in √(sigma·spacing), at most `noise_radius` spacings, when larger
+    /// than both: the radius whose PCA normals are as steady as at `min_radius` spacings and
+    /// sigma 0.25 spacing (see [`NORMAL_RADIUS`]). 0 turns the rule off.
+    pub normal_radius: f64,
+}
+
+/// A PCA normal's angular variance over a disc of radius r holding n ∝ r²/h² points with
+/// noise σ is ≈ 4σ²/(n r²) ∝ σ²h²/r⁴: the normals (and the normal-split score the candidates
+/// are chosen by) are equally steady wherever r ∝ √(σh). 8 leaves the radius where the
+/// spacing rule puts it up to σ = 0.25 spacing (8·√0.25 = 4), the noise the simulator's
+/// suite was tuned at, and beyond it grows the radius as the normals need, up to
+/// `noise_radius` spacings (reached at σ = 0.56 spacing; from σ = 1 spacing on the noise rule
+/// takes over, so the radius grows continuously with the noise). On the real RGB-D frames in
+/// ../shared/data/rgbd (σ = 0.5 spacing: 0.61 mm on 1.24 mm) it gives 5.7 spacings where the
+/// spacing rule gave 4, and the box edges went from 0–17 % of their length found to 75–100 %
+/// (`bench --frames`; fixed radii of 5, 6, 7, 8 and 10 mm found them in between). At σ = 1
+/// spacing a radius of 8 spacings rectified the simulated box worse than 6 (zone ratio 0.33
+/// against 0.22): hence the cap.
+pub const NORMAL_RADIUS: f64 = 8.0;
+
+impl Default for ScaleRules {
+    fn default() -> Self {
+        ScaleRules {
+            radius: None,
+            noise: None,
+            min_radius: 4.0,
+            noise_radius: 6.0,
+            normal_radius: NORMAL_RADIUS,
+        }
+    }
+}
+
+/// Per-point scale, side arrays by point id.
+#[derive(Debug, Clone, Default)]
+pub struct LocalScale {
+    pub spacing: Vec<f32>,
+    pub noise: Vec<f32>,
+    pub radius: Vec<f32>,
+}
+
+/// Neighbours of a sampled point whose plane and sectors give its spacing and noise.
+const K: usize = 48;
+/// Sampling cells, in mean spacings.
+const SAMPLE_CELL: f64 = 10.0;
+/// Samples within this many cells smooth each other: about 28 on a surface, which keeps the
+/// radii of a uniform scan within a few percent of each other (the features stage's grid is
+/// sized for the widest of nine in ten).
+const SMOOTH_CELLS: f64 = 3.0;
+/// Sector nearest distances measure the sampling pitch (1.01–1.12 pitches on jittered grids,
+/// noise or not), while the cloud-wide mean nearest distance every length in spacings was
+/// tuned with shrinks with the noise. Dividing by this ratio keeps the spacing, and so every
+/// radius and tolerance, what it was on the simulator's uniform scans at the suite's noise
+/// (sigma 0.15 pitch: third sector distance 1.075 pitches, mean nearest distance 0.81; the
+/// test below checks it).
+const SECTOR_RATIO: f64 = 1.33;
+
+impl LocalScale {
+    /// One scale for `n` points (tests, and configs giving every length).
+    pub fn uniform(n: usize, scale: Scale) -> LocalScale {
+        LocalScale {
+            spacing: vec![scale.spacing as f32; n],
+            noise: vec![scale.noise as f32; n],
+            radius: vec![scale.radius as f32; n],
+        }
+    }
+
+    /// The scale of point `i`.
+    pub fn at(&self, i: usize) -> Scale {
+        Scale {
+            spacing: f64::from(self.spacing[i]),
+            noise: f64::from(self.noise[i]),
+            radius: f64::from(self.radius[i]),
+        }
+    }
+
+    /// The median scale over some points (an edge's, a corner's); `None` without points.
+    pub fn around(&self, ids: impl IntoIterator<Item = u32>) -> Option<Scale> {
+        let mut v: Vec<[f32; 3]> = ids
+            .into_iter()
+            .map(|i| {
+                let i = i as usize;
+                [self.spacing[i], self.noise[i], self.radius[i]]
+            })
+            .collect();
+        if v.is_empty() {
+            return None;
+        }
+        let mid = v.len() / 2;
+        let median = |v: &mut Vec<[f32; 3]>, k: usize| {
+            v.select_nth_unstable_by(mid, |a, b| a[k].total_cmp(&b[k]));
+            f64::from(v[mid][k])
+        };
+        Some(Scale {
+            spacing: median(&mut v, 0),
+            noise: median(&mut v, 1),
+            radius: median(&mut v, 2),
+        })
+    }
+
+    /// The cloud's medians: the summary reported and logged.
+    pub fn summary(&self) -> Scale {
+        self.around(0..self.spacing.len() as u32).unwrap_or(Scale {
+            spacing: 0.0,
+            noise: 0.0,
+            radius: 0.0,
+        })
+    }
+
+    /// The `q`-quantile of the radii (0 ≤ q ≤ 1): the neighbour grid's cell.
+    pub fn radius_quantile(&self, q: f64) -> f64 {
+        let mut r = self.radius.clone();
+        if r.is_empty() {
+            return 0.0;
+        }
+        let k = ((r.len() - 1) as f64 * q.clamp(0.0, 1.0)).round() as usize;
+        let (_, v, _) = r.select_nth_unstable_by(k, f32::total_cmp);
+        f64::from(*v)
+    }
+}
+
+/// Measures every point's spacing, noise and radius (see the module comment). `spacing` is
+/// the cloud's mean nearest-neighbour distance.
+pub fn local_scale(
+    positions: &[[f64; 3]],
+    spacing: f64,
+    params: &ScaleRules,
+) -> Result<LocalScale> {
+    local_scale_in(&KdTree::new(positions)?, positions, spacing, params)
+}
+
+/// [`local_scale`] with a tree of `positions` built already (the pipeline's, shared with the
+/// mean spacing: building it is a third of this stage on a million points).
+pub fn local_scale_in(
+    tree: &KdTree,
+    positions: &[[f64; 3]],
+    spacing: f64,
+    params: &ScaleRules,
+) -> Result<LocalScale> {
+    if !(spacing.is_finite() && spacing > 0.0) {
+        return Err(Error::Degenerate {
+            what: "scale estimate",
+            why: format!("mean spacing must be positive, got {spacing}"),
+        });
+    }
+    let cells = Grid::new(positions, SAMPLE_CELL * spacing)?;
+    let blocks = cells.blocks();
+    // One sample per occupied cell: its lowest id (cells list their points by id).
+    let samples: Vec<u32> = blocks
+        .iter()
+        .map(|b| cells.slot_ids(b.slots.clone())[0])
+        .collect();
+    let raw: Vec<Option<Sample>> = samples
+        .par_iter()
+        .map(|&i| measure(positions, tree, i as usize))
+        .collect();
+    if raw.iter().all(Option::is_none) {
+        return Err(Error::Degenerate {
+            what: "scale estimate",
+            why: format!(
+                "no point has {} distinct neighbours spread over a surface; the cloud is too \
+                 small or lies on a line",
+                8
+            ),
+        });
+    }
+    // Smoothing: the samples within SMOOTH_CELLS cells of each sample.
+    let sample_pos: Vec<[f64; 3]> = samples.iter().map(|&i| positions[i as usize]).collect();
+    let sample_grid = Grid::new(&sample_pos, SMOOTH_CELLS * SAMPLE_CELL * spacing)?;
+    let reach = SMOOTH_CELLS * SAMPLE_CELL * spacing;
+    let smooth: Vec<(f64, f64)> = (0..samples.len())
+        .into_par_iter()
+        .map(|s| {
+            let mut around: Vec<Sample> = Vec::new();
+            sample_grid.for_each_within(sample_pos[s], reach, |j, _, _| {
+                around.extend(raw[j as usize]);
+            });
+            on_faces(&mut around)
+        })
+        .collect();
+    // Samples without a measurement of their own (and none around) take the cloud's.
+    let fallback = on_faces(&mut raw.iter().flatten().copied().collect());
+    let n = positions.len();
+    let mut out = LocalScale {
+        spacing: vec![0.0; n],
+        noise: vec![0.0; n],
+        radius: vec![0.0; n],
+    };
+    for (b, &(h, var)) in blocks.iter().zip(&smooth) {
+        let (h, var) = if h.is_finite() && var.is_finite() {
+            (h, var)
+        } else {
+            fallback
+        };
+        let h = h / SECTOR_RATIO;
+        let sigma = params.noise.unwrap_or(var.sqrt());
+        let radius = params.radius.unwrap_or_else(|| {
+            (params.min_radius * h)
+                .max(params.noise_radius * sigma)
+                .max((params.normal_radius * (sigma * h).sqrt()).min(params.noise_radius * h))
+        });
+        for &i in cells.slot_ids(b.slots.clone()) {
+            let i = i as usize;
+            out.spacing[i] = h as f32;
+            out.noise[i] = sigma as f32;
+            out.radius[i] = radius as f32;
+        }
+    }
+    Ok(out)
+}
+
+/// What one sampled neighbourhood says.
+#[derive(Debug, Clone, Copy)]
+struct Sample {
+    /// Spacing across the pattern, before calibration.
+    spacing: f64,
+    /// Out-of-plane variance.
+    var: f64,
+    /// Surface variation λ0 / (λ0 + λ1 + λ2): noise alone on a face, more across an edge.
+    variation: f64,
+}
+
+/// Samples whose surface variation exceeds this many times the lower quartile of those
+/// around them straddle an edge, and are left out.
+const ON_FACE: f64 = 2.0;
+
+/// (median spacing, median variance) of the samples that lie on faces: those whose surface
+/// variation is at most [`ON_FACE`] times the lower quartile around them. A neighbourhood
+/// across an edge reads the bend as noise, and its two faces projected on one plane as a
+/// denser sampling; near a sharp wedge's apex most neighbourhoods do (on a 30° wedge, within
+/// nine spacings of it), and the quartile stays on the faces while a quarter of the samples
+/// around does. At high noise every sample's variation is the noise's and none is left out,
+/// and none needs to be. (NaN, NaN) without samples.
+fn on_faces(around: &mut Vec<Sample>) -> (f64, f64) {
+    let mut variation: Vec<f64> = around.iter().map(|s| s.variation).collect();
+    let limit = ON_FACE * quantile(&mut variation, 0.25);
+    around.retain(|s| s.variation <= limit);
+    let mut h: Vec<f64> = around.iter().map(|s| s.spacing).collect();
+    let mut var: Vec<f64> = around.iter().map(|s| s.var).collect();
+    (quantile(&mut h, 0.5), quantile(&mut var, 0.5))
+}
+
+/// What the K nearest distinct neighbours of point `i` say; `None` with fewer than 8 of them.
+fn measure(positions: &[[f64; 3]], tree: &KdTree, i: usize) -> Option<Sample> {
+    let p = positions[i];
+    let offsets: Vec<[f64; 3]> = tree
+        .nearest(p, K + 1)
+        .into_iter()
+        .filter(|&(j, d)| j as usize != i && d > 0.0)
+        .map(|(j, _)| {
+            let q = positions[j as usize];
+            [q[0] - p[0], q[1] - p[1], q[2] - p[2]]
+        })
+        .filter(|d| dot(*d, *d) > 0.0)
+        .collect();
+    if offsets.len() < 8 {
+        return None;
+    }
+    let mut m = [0.0f64; 10];
+    for &d in &offsets {
+        add_moments(&mut m, d);
+    }
+    let pca = pca_from_moments(&m)?;
+    let n = f64::from(pca.count);
+    let var = pca.eigenvalues[0] * n / (n - 3.0);
+    let (u, v) = perp_basis(&pca.normal);
+    let in_plane: Vec<(f64, f64)> = offsets.iter().map(|&d| (dot(d, u), dot(d, v))).collect();
+    let nearest = in_plane
+        .iter()
+        .copied()
+        .filter(|&(x, y)| x * x + y * y > 0.0)
+        .min_by(|a, b| (a.0 * a.0 + a.1 * a.1).total_cmp(&(b.0 * b.0 + b.1 * b.1)))?;
+    let total = pca.eigenvalues.iter().sum::<f64>();
+    Some(Sample {
+        spacing: sector_spacing(&in_plane, nearest.1.atan2(nearest.0))?,
+        var,
+        variation: if total > 0.0 {
+            pca.eigenvalues[0] / total
+        } else {
+            0.0
+        },
+    })
+}
+
+/// The third smallest of the nearest distances in eight 45° sectors of the plane, the first
+/// centred on the direction `start` (radians); the largest when fewer than three sectors hold
+/// a point. `None` without points.
+pub fn sector_spacing(in_plane: &[(f64, f64)], start: f64) -> Option<f64> {
+    let sector = std::f64::consts::FRAC_PI_4;
+    let mut best = [f64::INFINITY; 8];
+    for &(x, y) in in_plane {
+        let d = (x * x + y * y).sqrt();
+        if d == 0.0 {
+            continue;
+        }
+        let a = (y.atan2(x) - start + 0.5 * sector).rem_euclid(std::f64::consts::TAU);
+        let s = ((a / sector) as usize).min(7);
+        best[s] = best[s].min(d);
+    }
+    let mut found: Vec<f64> = best.into_iter().filter(|d| d.is_finite()).collect();
+    found.sort_by(f64::total_cmp);
+    match found.len() {
+        0 => None,
+        1 | 2 => found.last().copied(),
+        _ => Some(found[2]),
+    }
+}
+
+/// The `q`-quantile (nearest rank) of `v`; NaN when empty.
+fn quantile(v: &mut [f64], q: f64) -> f64 {
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    let k = ((v.len() - 1) as f64 * q).round() as usize;
+    let (_, x, _) = v.select_nth_unstable_by(k, f64::total_cmp);
+    *x
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::neighbours::mean_spacing;
+    use crate::testdata::dihedral;
+
+    #[test]
+    fn sectors_of_scan_lines_give_the_gap_between_lines() {
+        // Lines along x, 0.1 apart along, 1.0 apart across.
+        let mut pts = Vec::new();
+        for l in -3..=3 {
+            for k in -40..=40 {
+                if (l, k) != (0, 0) {
+                    pts.push((0.1 * f64::from(k), f64::from(l)));
+                }
+            }
+        }
+        let h = sector_spacing(&pts, 0.0).unwrap();
+        assert!((h - 1.0).abs() < 1e-9, "{h}");
+        // A square grid of pitch 0.5 by 2: the larger pitch.
+        let grid: Vec<(f64, f64)> = (-5..=5)
+            .flat_map(|a| (-5..=5).map(move |b| (0.5 * f64::from(a), 2.0 * f64::from(b))))
+            .filter(|&(x, y)| x != 0.0 || y != 0.0)
+            .collect();
+        assert!((sector_spacing(&grid, 0.0).unwrap() - 2.0).abs() < 1e-9);
+        // A half plane (scan border): still the pitch.
+        let half: Vec<(f64, f64)> = grid.iter().copied().filter(|p| p.1 >= 0.0).collect();
+        assert!((sector_spacing(&half, 0.0).unwrap() - 2.0).abs() < 1e-9);
+        assert_eq!(sector_spacing(&[], 0.0), None);
+    }
+
+    #[test]
+    fn uniform_sampling_keeps_its_spacing_and_noise() {
+        // The simulator's uniform sampling at the suite's noise: the spacing is the mean
+        // nearest distance there (the calibration of SECTOR_RATIO), the noise the true sigma.
+        let params = crate::synth::SynthParams {
+            sampling: crate::synth::Sampling::Points(60_000),
+            noise: 0.15,
+            seed: 4,
+            ..Default::default()
+        };
+        let scan = crate::synth::generate(&params).unwrap();
+        let pts = &scan.cloud.positions;
+        let s = mean_spacing(pts, 50_000).unwrap();
+        let local = local_scale(pts, s, &ScaleRules::default()).unwrap();
+        let sum = local.summary();
+        assert!(
+            (sum.spacing / s - 1.0).abs() < 0.05,
+            "{} against {s}",
+            sum.spacing
+        );
+        let sigma = 0.15 * scan.ground_truth.spacing;
+        assert!(
+            (sum.noise / sigma - 1.0).abs() < 0.15,
+            "{} against {sigma}",
+            sum.noise
+        );
+        // Whatever the noise, the spacing follows the pitch, not the noise.
+        for sigma in [0.0, 0.05, 0.15, 0.5, 1.0] {
+            let (pts, _) = dihedral(90.0, 1.0, sigma, 30.0, 3);
+            let local = local_scale(&pts, 0.64, &ScaleRules::default()).unwrap();
+            let sum = local.summary();
+            let pitch = sum.spacing * SECTOR_RATIO;
+            assert!((1.0..1.2).contains(&pitch), "sigma {sigma}: pitch {pitch}");
+            if sigma > 0.0 {
+                let rel = (sum.noise - sigma).abs() / sigma;
+                assert!(rel < 0.15, "sigma {sigma}: estimated {}", sum.noise);
+            }
+            for i in 0..pts.len() {
+                let sc = local.at(i);
+                assert!(sc.radius >= 4.0 * sc.spacing * 0.999);
+                assert!(sc.radius >= 6.0 * sc.noise * 0.999);
+            }
+        }
+    }
+
+    #[test]
+    fn scan_lines_get_the_spacing_across_them() {
+        // A plane scanned in lines 0.1 apart along x and 1.0 apart across: the mean nearest
+        // distance is the along-line 0.1, the local spacing must be the gap.
+        let mut pts = Vec::new();
+        for l in 0..60 {
+            for k in 0..600 {
+                pts.push([0.1 * f64::from(k), f64::from(l), 0.0]);
+            }
+        }
+        let s = mean_spacing(&pts, 50_000).unwrap();
+        assert!(s < 0.11);
+        let local = local_scale(&pts, s, &ScaleRules::default()).unwrap();
+        let h = local.summary().spacing * SECTOR_RATIO;
+        assert!((h - 1.0).abs() < 0.05, "{h}");
+    }
+
+    #[test]
+    fn density_gradient_gives_each_side_its_own_spacing() {
+        // Two squares side by side, spacing 0.5 and 2.0: each keeps its own.
+        let mut pts = Vec::new();
+        for a in 0..120 {
+            for b in 0..120 {
+                pts.push([0.5 * f64::from(a), 0.5 * f64::from(b), 0.0]);
+            }
+        }
+        for a in 0..60 {
+            for b in 0..30 {
+                pts.push([100.0 + 2.0 * f64::from(a), 2.0 * f64::from(b), 0.0]);
+            }
+        }
+        let s = mean_spacing(&pts, 50_000).unwrap();
+        let local = local_scale(&pts, s, &ScaleRules::default()).unwrap();
+        let h = |i: usize| local.at(i).spacing * SECTOR_RATIO;
+        assert!(
+            (h(60 * 120 + 60) - 0.5).abs() < 0.05,
+            "{}",
+            h(60 * 120 + 60)
+        );
+        assert!((h(120 * 120 + 30 * 30 + 15) - 2.0).abs() < 0.2);
+    }
+
+    #[test]
+    fn given_radius_and_noise_replace_the_measured_ones() {
+        let (pts, _) = dihedral(90.0, 1.0, 0.1, 20.0, 3);
+        let params = ScaleRules {
+            radius: Some(3.5),
+            noise: Some(0.2),
+            ..ScaleRules::default()
+        };
+        let local = local_scale(&pts, 1.0, &params).unwrap();
+        assert!(local.radius.iter().all(|&r| r == 3.5));
+        assert!(local.noise.iter().all(|&r| r == 0.2));
+    }
+
+    #[test]
+    fn bad_spacing_is_an_error() {
+        let (pts, _) = dihedral(90.0, 1.0, 0.1, 5.0, 3);
+        assert!(local_scale(&pts, 0.0, &ScaleRules::default()).is_err());
+        assert!(local_scale(&pts, f64::NAN, &ScaleRules::default()).is_err());
+    }
+}
