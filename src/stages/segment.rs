@@ -1191,16 +1191,22 @@ mod tests {
         let fp = FeatureParams::default();
         let spacing = crate::neighbours::mean_spacing(&pts, 20_000).unwrap();
         let local = crate::stages::scale::local_scale(&pts, spacing, &fp.scale_rules()).unwrap();
-        let scale = local.summary();
-        let grid = Grid::new(&pts, scale.radius).unwrap();
+        let grid = Grid::new(&pts, local.summary().radius).unwrap();
         let f = features(&pts, &grid, &local, &fp, &Progress::hidden());
+        // As the pipeline does: runs grown at the candidates' scale.
+        let scale = local
+            .around((0..pts.len() as u32).filter(|&i| f.candidate[i as usize]))
+            .unwrap();
         (segment(&pts, &f, &scale, &SegmentParams::default()), scale)
     }
 
     #[test]
     fn box_gives_twelve_runs_and_eight_three_way_vertices() {
         for sigma in [0.0, 0.15, 0.5, 1.0] {
-            let dims = [40.0, 30.0, 20.0];
+            // 120 x 90 x 60 pitches: at sigma = 0.5 (0.6 spacings measured) the local scale
+            // makes neighbourhoods 6 spacings wide, and on the 80 x 60 x 40 box of before a
+            // short face's two edges then met in one five-ended vertex.
+            let dims = [60.0, 45.0, 30.0];
             let (seg, scale) = run_on(dims, 0.5, sigma * 0.5);
             let edges = box_edges(dims);
             let summary: Vec<String> = seg
