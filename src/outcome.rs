@@ -9,6 +9,7 @@ use serde::Serialize;
 
 use crate::cloud::Cloud;
 use crate::geometry::{norm, sub};
+use crate::left_out::LeftOut;
 use crate::stages::corners::{CornerFit, EdgeGeometry};
 use crate::stages::edges::EdgeResult;
 use crate::stages::features::{Features, Scale};
@@ -35,8 +36,9 @@ pub struct Outcome {
     pub moved: Vec<bool>,
     /// Edge id of every point (`u32::MAX` for none).
     pub edge_label: Vec<u32>,
-    /// One line per fit that failed (counted and reported, never fatal).
-    pub failures: Vec<String>,
+    /// Every candidate that gave no edge or corner, with its reason: judged no sharp edge, or
+    /// a fit that failed (counted and reported, never fatal).
+    pub left_out: Vec<LeftOut>,
 }
 
 /// One extracted edge as reported.

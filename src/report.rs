@@ -20,6 +20,7 @@ use crate::cloud::{Attribute, Column};
 use crate::config::{Precision, Settings};
 use crate::error::{Error, Result};
 use crate::io::{self, PlyWriteOptions};
+use crate::left_out::{LeftOut, Tally};
 use crate::outcome::{CornerOut, EdgeOut, Outcome, PointFields, Timing};
 
 #[derive(Serialize)]
@@ -31,8 +32,15 @@ struct Report<'a> {
     timings: &'a [Timing],
     edges: &'a [EdgeOut],
     corners: &'a [CornerOut],
-    failures: &'a [String],
+    left_out: LeftOutReport<'a>,
     config: &'a Settings,
+}
+
+/// The candidates that gave no edge or corner: counted by reason, then each with its message.
+#[derive(Serialize)]
+struct LeftOutReport<'a> {
+    by_reason: Tally,
+    candidates: &'a [LeftOut],
 }
 
 #[derive(Serialize)]
@@ -51,6 +59,9 @@ struct Counts {
     edges: usize,
     corners: usize,
     moved: usize,
+    /// Candidates judged no sharp edge or corner (a fillet, a surface bending, ...).
+    left_out: usize,
+    /// Fits that could not be computed.
     failed_fits: usize,
 }
 
@@ -392,6 +403,7 @@ fn write_report(
     timings: &[Timing],
 ) -> Result<()> {
     let f = &outcome.features;
+    let tally = Tally::of(&outcome.left_out);
     let report = Report {
         sharpedge: env!("CARGO_PKG_VERSION"),
         input: InputReport {
@@ -408,12 +420,16 @@ fn write_report(
             edges: outcome.edges.len(),
             corners: outcome.corners.len(),
             moved: outcome.moved.iter().filter(|&&m| m).count(),
-            failed_fits: outcome.failures.len(),
+            left_out: tally.judged(),
+            failed_fits: tally.failed(),
         },
         timings,
         edges: &outcome.edges,
         corners: &outcome.corners,
-        failures: &outcome.failures,
+        left_out: LeftOutReport {
+            by_reason: tally,
+            candidates: &outcome.left_out,
+        },
         config: settings,
     };
     let text = crate::json::pretty(&report)

@@ -276,6 +276,7 @@ fn output_contract_on_a_synth_box() {
         "edges",
         "corners",
         "moved",
+        "left_out",
         "failed_fits",
     ] {
         assert!(rep["counts"][k].is_u64(), "counts.{k}");
