@@ -120,6 +120,7 @@ struct RawRectify {
 struct RawInput {
     path: Opt<String>,
     non_finite: Opt<String>,
+    sensors: Opt<Vec<[f64; 3]>>,
 }
 
 #[derive(Debug, Default, Deserialize)]
@@ -180,6 +181,10 @@ pub struct InputSettings {
     pub path: Option<PathBuf>,
     #[serde(serialize_with = "ser_non_finite")]
     pub non_finite: NonFinite,
+    /// Where the scanner stood, in the cloud's coordinates (an RGB-D frame in its camera's
+    /// frame: the origin), one per view; empty when unknown. Tells the side of the material of
+    /// edges an open scan leaves undecided (see `stages::convexity`).
+    pub sensors: Vec<[f64; 3]>,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -221,6 +226,7 @@ impl Default for Settings {
             input: InputSettings {
                 path: None,
                 non_finite: NonFinite::Reject,
+                sensors: Vec::new(),
             },
             output: OutputSettings {
                 dir: PathBuf::from("out"),
@@ -504,6 +510,17 @@ impl Checker<'_> {
                 d.input.non_finite,
                 &[("reject", NonFinite::Reject), ("drop", NonFinite::Drop)],
             )?,
+            sensors: match &raw.input.sensors {
+                Some(v) if v.get_ref().iter().flatten().any(|x| !x.is_finite()) => {
+                    return Err(self.err(
+                        v.span(),
+                        "input.sensors",
+                        "must be finite [x, y, z] positions".into(),
+                    ));
+                }
+                Some(v) => v.get_ref().clone(),
+                None => Vec::new(),
+            },
         };
         let output = OutputSettings {
             dir: match &raw.output.dir {

@@ -10,6 +10,7 @@ use serde::Serialize;
 use crate::cloud::Cloud;
 use crate::geometry::{norm, sub};
 use crate::left_out::LeftOut;
+use crate::stages::convexity::{Convexity, Votes};
 use crate::stages::corners::{CornerFit, EdgeGeometry};
 use crate::stages::edges::EdgeResult;
 use crate::stages::features::{Features, Scale};
@@ -59,6 +60,9 @@ pub struct EdgeOut {
     /// absent when not determined.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub convex: Option<bool>,
+    /// The votes `convex` was decided on (rays through the scan, sensors; see
+    /// `stages::convexity`): too few, or no two-thirds majority, leave it undetermined.
+    pub convex_votes: Votes,
     /// Dihedral angle between the two faces, in degrees, when fitted.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub dihedral_deg: Option<f64>,
@@ -110,6 +114,7 @@ pub fn describe(
     geometry: &[Option<EdgeGeometry>],
     corners: &[CornerFit],
     edge_of_run: &[Option<u32>],
+    convexity: &[Convexity],
 ) -> (Vec<EdgeOut>, Vec<CornerOut>) {
     let mut edges = Vec::new();
     for (k, g) in geometry.iter().enumerate() {
@@ -141,7 +146,8 @@ pub fn describe(
             points: f.slabs.iter().map(|s| s.points).sum(),
             rms,
             corners: g.corners,
-            convex: None,
+            convex: convexity[k].convex(),
+            convex_votes: convexity[k].votes(),
             dihedral_deg: Some(f.dihedral_deg),
             polyline: g.polyline.clone(),
             closed: f.closed,

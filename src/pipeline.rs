@@ -17,6 +17,7 @@ use crate::neighbours::{self, Grid};
 use crate::outcome::{Outcome, Timing, describe};
 use crate::progress::Progress;
 use crate::report;
+use crate::stages::convexity;
 use crate::stages::corners::{self, CornerFit};
 use crate::stages::edges;
 use crate::stages::features::{self, Scale};
@@ -263,7 +264,9 @@ pub fn process(cloud: Cloud, settings: &Settings, clock: &mut impl LapClock) -> 
         &settings.rectify,
     );
     clock.lap("rectify");
-    let (edges, corners) = describe(&fits, &geometry, &corner_list, &edge_of_run);
+    let convexity = convexity::convexity(&surface, &fits, &settings.input.sensors);
+    clock.lap("convexity");
+    let (edges, corners) = describe(&fits, &geometry, &corner_list, &edge_of_run, &convexity);
     Ok(Outcome {
         cloud,
         scale,

@@ -2,11 +2,12 @@
 //! order `crate::pipeline` runs them: features (per-point PCA, sharpness, candidate edge
 //! points) -> segment (edge runs and the vertices where they meet) -> edges (the paper's
 //! constrained 2D fit per slab across each edge) -> corners (the constrained 3D fit per
-//! vertex) -> rectify (abnormal points moved onto the fitted faces).
+//! vertex) -> convexity (the side of the material of each edge) -> rectify (abnormal points moved onto the fitted faces).
 //!
 //! Stages use the layers below them (geometry, fit, neighbours, cloud) and the stages before
 //! them, never the pipeline, the writers or a later stage.
 
+pub mod convexity;
 pub mod corners;
 pub mod edges;
 pub mod features;
