@@ -42,10 +42,38 @@ pub struct Outcome {
     pub left_out: Vec<LeftOut>,
 }
 
+/// What kind of edge a reported edge is. Serialised as its name (report.json, edges.geojson);
+/// features.ply and the LAS/LAZ `edge_kind` extra bytes carry [`EdgeKind::code`], one table
+/// for both (`lidar_out::kind`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum EdgeKind {
+    /// Where two faces of the part meet: fitted, its abnormal zone rectified.
+    Sharp,
+}
+
+impl EdgeKind {
+    pub fn name(self) -> &'static str {
+        match self {
+            EdgeKind::Sharp => "sharp",
+        }
+    }
+
+    /// The value of the `edge_kind` code table (`lidar_out::kind`) for this kind: a point in
+    /// a sharp edge's zone has `edge_kind` 2 in a LAS/LAZ output, and so do the sharp edge's
+    /// vertices in features.ply.
+    pub fn code(self) -> u8 {
+        match self {
+            EdgeKind::Sharp => crate::lidar_out::kind::EDGE,
+        }
+    }
+}
+
 /// One extracted edge as reported.
 #[derive(Debug, Clone, Serialize)]
 pub struct EdgeOut {
     pub id: usize,
+    pub kind: EdgeKind,
     pub start: [f64; 3],
     pub end: [f64; 3],
     /// Unit direction from start to end.
@@ -57,8 +85,7 @@ pub struct EdgeOut {
     /// Corners at the start and end (ids into `corners`), when the edge ends at one.
     pub corners: [Option<usize>; 2],
     /// True for a convex edge (material inside the smaller angle), false for a concave one;
-    /// absent when not determined.
-    #[serde(skip_serializing_if = "Option::is_none")]
+    /// null when not determined (see `convex_votes`).
     pub convex: Option<bool>,
     /// The votes `convex` was decided on (rays through the scan, sensors; see
     /// `stages::convexity`): too few, or no two-thirds majority, leave it undetermined.
@@ -140,6 +167,7 @@ pub fn describe(
         let sum = |j: usize| f.slabs.iter().map(|s| s.errors[j]).sum::<f64>();
         edges.push(EdgeOut {
             id: id as usize,
+            kind: EdgeKind::Sharp,
             start,
             end,
             direction,

@@ -324,16 +324,22 @@ fn write_rectified(path: &Path, outcome: &Outcome, opts: &PlyWriteOptions) -> Re
     io::write_ply(path, &outcome.rectified, &attrs, &[], opts)
 }
 
+/// `scalar_edge_kind` of a corner in features.ply: no edge's kind.
+const NO_EDGE_KIND: u8 = 255;
+
 fn write_features(path: &Path, outcome: &Outcome, opts: &PlyWriteOptions) -> Result<()> {
     // Vertices: corners, then each edge's polyline, then its rectified edge points.
     let mut pos: Vec<[f64; 3]> = Vec::new();
     let mut kind: Vec<u8> = Vec::new();
     let mut edge_id: Vec<i32> = Vec::new();
+    // The edge's kind by the `edge_kind` code table (2 sharp); a corner belongs to no one edge.
+    let mut edge_kind: Vec<u8> = Vec::new();
     let mut lines: Vec<[u32; 2]> = Vec::new();
     for c in &outcome.corners {
         pos.push(c.position);
         kind.push(0);
         edge_id.push(-1);
+        edge_kind.push(NO_EDGE_KIND);
     }
     for e in &outcome.edges {
         let first = pos.len() as u32;
@@ -341,6 +347,7 @@ fn write_features(path: &Path, outcome: &Outcome, opts: &PlyWriteOptions) -> Res
             pos.push(*p);
             kind.push(1);
             edge_id.push(e.id as i32);
+            edge_kind.push(e.kind.code());
             if k > 0 {
                 lines.push([first + k as u32 - 1, first + k as u32]);
             }
@@ -351,6 +358,7 @@ fn write_features(path: &Path, outcome: &Outcome, opts: &PlyWriteOptions) -> Res
             pos.push(*p);
             kind.push(2);
             edge_id.push(e.id as i32);
+            edge_kind.push(e.kind.code());
         }
     }
     if pos.len() > i32::MAX as usize {
@@ -378,6 +386,10 @@ fn write_features(path: &Path, outcome: &Outcome, opts: &PlyWriteOptions) -> Res
         Attribute {
             name: "scalar_edge_id".into(),
             values: Column::I32(edge_id),
+        },
+        Attribute {
+            name: "scalar_edge_kind".into(),
+            values: Column::U8(edge_kind),
         },
         Attribute {
             name: "red".into(),

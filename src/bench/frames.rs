@@ -743,6 +743,7 @@ mod tests {
     fn edge(polyline: Vec<V3>) -> EdgeOut {
         EdgeOut {
             id: 0,
+            kind: crate::outcome::EdgeKind::Sharp,
             start: polyline[0],
             end: *polyline.last().unwrap(),
             direction: [1.0, 0.0, 0.0],
