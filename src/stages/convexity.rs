@@ -20,7 +20,8 @@
 //!   both face planes: convex; inside both: concave), none when they allow both or neither.
 //!
 //! The edge is decided by the sensors' votes when they give a two-thirds majority of at least
-//! [`MIN_VOTES`], else likewise by the rays', undecided otherwise.
+//! [`MIN_VOTES`], else likewise by the rays' when at least half of the pairs voted, undecided
+//! otherwise.
 
 use rayon::prelude::*;
 use serde::Serialize;
@@ -58,11 +59,13 @@ impl Votes {
     }
 }
 
-/// Per run: its votes (rays and sensors); runs without an edge have none.
+/// Per run: its votes (rays and sensors) and how many mirrored pairs of rays were cast; runs
+/// without an edge have none.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct Convexity {
     pub rays: Votes,
     pub sensors: Votes,
+    pub pairs: usize,
 }
 
 impl Convexity {
@@ -76,8 +79,18 @@ impl Convexity {
     /// The sensors' decision when they give one, else the rays': rays through an open scan
     /// can meet another object standing in front of the edge (seen on a frame of stacked
     /// boxes), a sensor's side of the faces cannot mislead.
+    ///
+    /// The rays count only when at least half of the pairs voted: around an edge of a scan
+    /// closed all round nearly every pair does (measured: 15 of 15 on most edges of the suite
+    /// and random parts), while through an open scan most pairs see no surface on either side
+    /// and the few that vote disagree (aerial lidar: 4 to 10 of 15, split 3 to 1 or worse).
     pub fn convex(&self) -> Option<bool> {
-        self.sensors.decide().or_else(|| self.rays.decide())
+        let rays = self.rays.convex + self.rays.concave;
+        self.sensors.decide().or_else(|| {
+            (2 * rays >= self.pairs)
+                .then(|| self.rays.decide())
+                .flatten()
+        })
     }
 }
 
@@ -192,6 +205,7 @@ fn edge_convexity(
             };
             let start_in = clear(wg.half - inside_turn * sign.abs());
             let start_out = clear(std::f64::consts::PI - wg.half - outside_turn * sign.abs());
+            out.pairs += 1;
             let inner = crossings(surface, s.corner, din, start_in, tube, bounds);
             let outer = crossings(surface, s.corner, dout, start_out, tube, bounds);
             match (inner % 2, outer % 2) {
@@ -293,12 +307,15 @@ mod tests {
                     convex: sensors.0,
                     concave: sensors.1,
                 },
+                pairs: 12,
             }
             .convex()
         };
         assert_eq!(c((0, 6), (6, 0)), Some(true));
         assert_eq!(c((0, 6), (1, 0)), Some(false));
         assert_eq!(c((0, 0), (0, 0)), None);
+        // Fewer than half of the pairs voted: an open scan, the rays tell nothing.
+        assert_eq!(c((0, 5), (0, 0)), None);
     }
 
     #[test]
