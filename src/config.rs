@@ -912,6 +912,20 @@ mod tests {
     }
 
     #[test]
+    fn sensors_are_read_and_must_be_finite() {
+        let s = parse_str("[input]\nsensors = [[0, 0, 0], [1.5, -2, 3e2]]\n").unwrap();
+        assert_eq!(s.input.sensors, vec![[0.0; 3], [1.5, -2.0, 300.0]]);
+        assert!(parse_str("").unwrap().input.sensors.is_empty());
+        let e = err("[input]\nsensors = [[0, nan, 0]]\n");
+        assert_eq!(
+            e,
+            "pipeline.toml:2: input.sensors: must be finite [x, y, z] positions"
+        );
+        let e = err("[input]\nsensors = [[0, 0]]\n");
+        assert!(e.starts_with("pipeline.toml:2: "), "{e}");
+    }
+
+    #[test]
     fn bad_length() {
         let e = err("[features]\nradius = -2\n");
         assert_eq!(
