@@ -358,8 +358,15 @@ fn summary_text(s: &sharpedge::pipeline::Summary) -> String {
     );
     let _ = writeln!(
         t,
-        "  candidates {}   outliers {}   edges {}   corners {}   moved points {}   failed fits {}",
-        s.candidates, s.outliers, s.edges, s.corners, s.moved, s.failed
+        "  candidates {}   outliers {}   moved points {}",
+        s.candidates, s.outliers, s.moved
+    );
+    let _ = writeln!(
+        t,
+        "  {} edges, {} corners; {}",
+        s.edges,
+        s.corners,
+        s.left_out.summary()
     );
     let stages: Vec<String> = s
         .timings

@@ -120,6 +120,7 @@ struct RawRectify {
 struct RawInput {
     path: Opt<String>,
     non_finite: Opt<String>,
+    sensors: Opt<Vec<[f64; 3]>>,
 }
 
 #[derive(Debug, Default, Deserialize)]
@@ -181,6 +182,10 @@ pub struct InputSettings {
     pub path: Option<PathBuf>,
     #[serde(serialize_with = "ser_non_finite")]
     pub non_finite: NonFinite,
+    /// Where the scanner stood, in the cloud's coordinates (an RGB-D frame in its camera's
+    /// frame: the origin), one per view; empty when unknown. Tells the side of the material of
+    /// edges an open scan leaves undecided (see `stages::convexity`).
+    pub sensors: Vec<[f64; 3]>,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -222,6 +227,7 @@ impl Default for Settings {
             input: InputSettings {
                 path: None,
                 non_finite: NonFinite::Reject,
+                sensors: Vec::new(),
             },
             output: OutputSettings {
                 dir: PathBuf::from("out"),
@@ -505,6 +511,17 @@ impl Checker<'_> {
                 d.input.non_finite,
                 &[("reject", NonFinite::Reject), ("drop", NonFinite::Drop)],
             )?,
+            sensors: match &raw.input.sensors {
+                Some(v) if v.get_ref().iter().flatten().any(|x| !x.is_finite()) => {
+                    return Err(self.err(
+                        v.span(),
+                        "input.sensors",
+                        "must be finite [x, y, z] positions".into(),
+                    ));
+                }
+                Some(v) => v.get_ref().clone(),
+                None => Vec::new(),
+            },
         };
         let output = OutputSettings {
             dir: match &raw.output.dir {
@@ -901,6 +918,20 @@ mod tests {
             e,
             "pipeline.toml:2: output.encoding: must be one of \"binary\", \"ascii\", got \"binary_big_endian\""
         );
+    }
+
+    #[test]
+    fn sensors_are_read_and_must_be_finite() {
+        let s = parse_str("[input]\nsensors = [[0, 0, 0], [1.5, -2, 3e2]]\n").unwrap();
+        assert_eq!(s.input.sensors, vec![[0.0; 3], [1.5, -2.0, 300.0]]);
+        assert!(parse_str("").unwrap().input.sensors.is_empty());
+        let e = err("[input]\nsensors = [[0, nan, 0]]\n");
+        assert_eq!(
+            e,
+            "pipeline.toml:2: input.sensors: must be finite [x, y, z] positions"
+        );
+        let e = err("[input]\nsensors = [[0, 0]]\n");
+        assert!(e.starts_with("pipeline.toml:2: "), "{e}");
     }
 
     #[test]

@@ -14,6 +14,7 @@ pub mod fit;
 pub mod geometry;
 pub mod io;
 pub mod json;
+pub mod left_out;
 pub mod lidar_out;
 pub mod neighbours;
 pub mod outcome;

@@ -15,17 +15,9 @@ use crate::error::Result;
 use crate::io::{self, Crs, ExtraField, GeoFeature, Geometry, LasWriteOptions, Lidar};
 use crate::outcome::{Outcome, PointFields};
 
-/// What a point is to sharpedge, in the `edge_kind` extra bytes.
-pub mod kind {
-    /// On a face: no edge candidate, in no edge's zone.
-    pub const FACE: u8 = 0;
-    /// An edge candidate (high normal split) that belongs to no fitted edge.
-    pub const CANDIDATE: u8 = 1;
-    /// In a fitted edge's abnormal zone (its `edge_id` is set).
-    pub const EDGE: u8 = 2;
-    /// Isolated (too few neighbours): never a candidate, never moved.
-    pub const OUTLIER: u8 = 3;
-}
+/// What a point is to sharpedge, in the `edge_kind` extra bytes; the edges' own kinds use the
+/// same table (`EdgeKind::code`: the vertices of a sharp edge in features.ply have 2).
+pub use crate::outcome::kind;
 
 /// Writes the rectified cloud as LAS/LAZ in the input's layout with the per-point fields as
 /// extra bytes: `edge_id`, `edge_kind`, `moved`, `displacement`, `sharpness`.
@@ -37,11 +29,24 @@ pub fn write_rectified(
 ) -> Result<()> {
     let fields = PointFields::of(outcome);
     let f = &outcome.features;
-    let edge: Vec<bool> = outcome.edge_label.iter().map(|&l| l != u32::MAX).collect();
+    // A point in an edge's zone has that edge's kind.
+    let mut code_of_id =
+        vec![kind::EDGE; outcome.edges.iter().map(|e| e.id + 1).max().unwrap_or(0)];
+    for e in &outcome.edges {
+        code_of_id[e.id] = e.kind.code();
+    }
+    let edge_code: Vec<Option<u8>> = outcome
+        .edge_label
+        .iter()
+        .map(|&l| {
+            (l != u32::MAX).then(|| code_of_id.get(l as usize).copied().unwrap_or(kind::EDGE))
+        })
+        .collect();
+    let edge: Vec<bool> = edge_code.iter().map(Option::is_some).collect();
     let kinds: Vec<u8> = (0..outcome.cloud.len())
         .map(|i| {
-            if edge[i] {
-                kind::EDGE
+            if let Some(e) = edge_code[i] {
+                e
             } else if f.outlier[i] {
                 kind::OUTLIER
             } else if f.candidate[i] {
@@ -97,11 +102,12 @@ pub fn write_rectified(
 
 /// Writes the edges (a 3D line string each: a curved edge's polyline, a closed one ending
 /// where it starts) and corners (3D points) as GeoJSON in `crs`. Properties: `id`, `kind`
-/// (`edge` or `corner`), `dihedral` (degrees), `rms`, `convex` (null when not determined),
-/// and for corners the ids of their `edges`.
+/// (`edge` or `corner`), `edge_kind` (the edge's kind, `sharp`; null for corners), `dihedral`
+/// (degrees), `rms`, `convex` (null when not determined), and for corners the ids of their
+/// `edges`.
 pub fn write_edges(path: &Path, outcome: &Outcome, crs: Option<&Crs>) -> Result<()> {
     let mut features = Vec::with_capacity(outcome.edges.len() + outcome.corners.len());
-    let props = |pairs: [(&str, Value); 5]| -> Map<String, Value> {
+    let props = |pairs: [(&str, Value); 6]| -> Map<String, Value> {
         pairs.into_iter().map(|(k, v)| (k.to_string(), v)).collect()
     };
     for e in &outcome.edges {
@@ -110,6 +116,7 @@ pub fn write_edges(path: &Path, outcome: &Outcome, crs: Option<&Crs>) -> Result<
             properties: props([
                 ("id", json!(e.id)),
                 ("kind", json!("edge")),
+                ("edge_kind", json!(e.kind)),
                 ("dihedral", json!(e.dihedral_deg)),
                 ("rms", json!(e.rms)),
                 ("convex", json!(e.convex)),
@@ -120,6 +127,7 @@ pub fn write_edges(path: &Path, outcome: &Outcome, crs: Option<&Crs>) -> Result<
         let mut p = props([
             ("id", json!(c.id)),
             ("kind", json!("corner")),
+            ("edge_kind", Value::Null),
             ("dihedral", Value::Null),
             ("rms", Value::Null),
             ("convex", Value::Null),

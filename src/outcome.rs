@@ -9,10 +9,25 @@ use serde::Serialize;
 
 use crate::cloud::Cloud;
 use crate::geometry::{norm, sub};
+use crate::left_out::LeftOut;
+use crate::stages::convexity::{Convexity, Votes};
 use crate::stages::corners::{CornerFit, EdgeGeometry};
 use crate::stages::edges::EdgeResult;
 use crate::stages::features::{Features, Scale};
 use crate::stages::segment::Segments;
+
+/// The `edge_kind` code of each point and edge, one table for the LAS extra bytes, the
+/// PLY fields and the report (`lidar_out` writes it).
+pub mod kind {
+    /// On a face: no edge candidate, in no edge's zone.
+    pub const FACE: u8 = 0;
+    /// An edge candidate (high normal split) that belongs to no fitted edge.
+    pub const CANDIDATE: u8 = 1;
+    /// In a fitted sharp edge's abnormal zone (its `edge_id` is set).
+    pub const EDGE: u8 = 2;
+    /// Isolated (too few neighbours): never a candidate, never moved.
+    pub const OUTLIER: u8 = 3;
+}
 
 /// Wall time of one stage.
 #[derive(Debug, Clone, serde::Serialize)]
@@ -35,14 +50,43 @@ pub struct Outcome {
     pub moved: Vec<bool>,
     /// Edge id of every point (`u32::MAX` for none).
     pub edge_label: Vec<u32>,
-    /// One line per fit that failed (counted and reported, never fatal).
-    pub failures: Vec<String>,
+    /// Every candidate that gave no edge or corner, with its reason: judged no sharp edge, or
+    /// a fit that failed (counted and reported, never fatal).
+    pub left_out: Vec<LeftOut>,
+}
+
+/// What kind of edge a reported edge is. Serialised as its name (report.json, edges.geojson);
+/// features.ply and the LAS/LAZ `edge_kind` extra bytes carry [`EdgeKind::code`], one table
+/// for both (`kind`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum EdgeKind {
+    /// Where two faces of the part meet: fitted, its abnormal zone rectified.
+    Sharp,
+}
+
+impl EdgeKind {
+    pub fn name(self) -> &'static str {
+        match self {
+            EdgeKind::Sharp => "sharp",
+        }
+    }
+
+    /// The value of the `edge_kind` code table (`kind`) for this kind: a point in
+    /// a sharp edge's zone has `edge_kind` 2 in a LAS/LAZ output, and so do the sharp edge's
+    /// vertices in features.ply.
+    pub fn code(self) -> u8 {
+        match self {
+            EdgeKind::Sharp => kind::EDGE,
+        }
+    }
 }
 
 /// One extracted edge as reported.
 #[derive(Debug, Clone, Serialize)]
 pub struct EdgeOut {
     pub id: usize,
+    pub kind: EdgeKind,
     pub start: [f64; 3],
     pub end: [f64; 3],
     /// Unit direction from start to end.
@@ -54,9 +98,11 @@ pub struct EdgeOut {
     /// Corners at the start and end (ids into `corners`), when the edge ends at one.
     pub corners: [Option<usize>; 2],
     /// True for a convex edge (material inside the smaller angle), false for a concave one;
-    /// absent when not determined.
-    #[serde(skip_serializing_if = "Option::is_none")]
+    /// null when not determined (see `convex_votes`).
     pub convex: Option<bool>,
+    /// The votes `convex` was decided on (rays through the scan, sensors; see
+    /// `stages::convexity`): too few, or no two-thirds majority, leave it undetermined.
+    pub convex_votes: Votes,
     /// Dihedral angle between the two faces, in degrees, when fitted.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub dihedral_deg: Option<f64>,
@@ -108,6 +154,7 @@ pub fn describe(
     geometry: &[Option<EdgeGeometry>],
     corners: &[CornerFit],
     edge_of_run: &[Option<u32>],
+    convexity: &[Convexity],
 ) -> (Vec<EdgeOut>, Vec<CornerOut>) {
     let mut edges = Vec::new();
     for (k, g) in geometry.iter().enumerate() {
@@ -133,13 +180,15 @@ pub fn describe(
         let sum = |j: usize| f.slabs.iter().map(|s| s.errors[j]).sum::<f64>();
         edges.push(EdgeOut {
             id: id as usize,
+            kind: EdgeKind::Sharp,
             start,
             end,
             direction,
             points: f.slabs.iter().map(|s| s.points).sum(),
             rms,
             corners: g.corners,
-            convex: None,
+            convex: convexity[k].convex(),
+            convex_votes: convexity[k].votes(),
             dihedral_deg: Some(f.dihedral_deg),
             polyline: g.polyline.clone(),
             closed: f.closed,

@@ -12,12 +12,14 @@ use crate::cloud::Cloud;
 use crate::config::Settings;
 use crate::error::{Error, Result};
 use crate::io;
+use crate::left_out::{LeftOut, Tally};
 use crate::neighbours::{self, Grid, KdTree};
 use crate::outcome::{Outcome, Timing, describe};
 use crate::progress::Progress;
 use crate::report;
+use crate::stages::convexity;
 use crate::stages::corners::{self, CornerFit};
-use crate::stages::edges::{self, EdgeError};
+use crate::stages::edges;
 use crate::stages::features::{self, Scale};
 use crate::stages::rectify;
 use crate::stages::scale;
@@ -34,7 +36,8 @@ pub struct Summary {
     pub edges: usize,
     pub corners: usize,
     pub moved: usize,
-    pub failed: usize,
+    /// Candidates left out, by reason (failed fits under `Reason::Failed`).
+    pub left_out: Tally,
     pub timings: Vec<Timing>,
     pub outputs: Vec<PathBuf>,
 }
@@ -122,7 +125,7 @@ fn run_into(settings: &Settings, input: PathBuf, out_dir: &Path) -> Result<Summa
             edges: outcome.edges.len(),
             corners: outcome.corners.len(),
             moved: outcome.moved.iter().filter(|&&m| m).count(),
-            failed: outcome.failures.len(),
+            left_out: Tally::of(&outcome.left_out),
             timings: clock.timings,
             outputs,
         })
@@ -199,16 +202,16 @@ pub fn process(cloud: Cloud, settings: &Settings, clock: &mut impl LapClock) -> 
         &settings.fit,
         settings.seed,
     );
-    let mut failures: Vec<String> = Vec::new();
+    let mut left_out: Vec<LeftOut> = Vec::new();
     // Runs that are no sharp edge (fillets, bending surfaces) took part in vertices: find
     // the vertices again without them and fit the edges that are left anew.
     let not_edge: Vec<bool> = fits
         .iter()
-        .map(|f| matches!(f, Err(EdgeError::NotAnEdge(_))))
+        .map(|f| f.as_ref().is_err_and(|e| e.not_an_edge))
         .collect();
     if not_edge.iter().any(|&d| d) {
-        failures.extend(fits.iter().filter_map(|f| match f {
-            Err(e @ EdgeError::NotAnEdge(_)) => Some(e.to_string()),
+        left_out.extend(fits.iter().filter_map(|f| match f {
+            Err(e) if e.not_an_edge => Some(e.left_out()),
             _ => None,
         }));
         segments = segment::without_runs(
@@ -238,7 +241,7 @@ pub fn process(cloud: Cloud, settings: &Settings, clock: &mut impl LapClock) -> 
     clock.lap("corners");
     for f in &fits {
         match f {
-            Err(e) => failures.push(e.to_string()),
+            Err(e) => left_out.push(e.left_out()),
             Ok(e) if e.failed_slabs > 0 => {
                 tracing::debug!(
                     "edge {}: {} of {} slab fits failed",
@@ -255,7 +258,7 @@ pub fn process(cloud: Cloud, settings: &Settings, clock: &mut impl LapClock) -> 
     let mut corner_list: Vec<CornerFit> = Vec::new();
     let mut corner_of_vertex: Vec<Option<usize>> = vec![None; segments.vertices.len()];
     for (v, c) in corner_fits.into_iter().enumerate() {
-        failures.extend(c.failure);
+        left_out.extend(c.left_out);
         if let Some(c) = c.corner {
             corner_of_vertex[v] = Some(corner_list.len());
             corner_list.push(c);
@@ -281,7 +284,9 @@ pub fn process(cloud: Cloud, settings: &Settings, clock: &mut impl LapClock) -> 
         &settings.rectify,
     );
     clock.lap("rectify");
-    let (edges, corners) = describe(&fits, &geometry, &corner_list, &edge_of_run);
+    let convexity = convexity::convexity(&surface, &fits, &settings.input.sensors);
+    clock.lap("convexity");
+    let (edges, corners) = describe(&fits, &geometry, &corner_list, &edge_of_run, &convexity);
     Ok(Outcome {
         cloud,
         scale,
@@ -292,7 +297,7 @@ pub fn process(cloud: Cloud, settings: &Settings, clock: &mut impl LapClock) -> 
         rectified: rect.positions,
         moved: rect.moved,
         edge_label: rect.label,
-        failures,
+        left_out,
     })
 }
 

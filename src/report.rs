@@ -20,6 +20,7 @@ use crate::cloud::{Attribute, Column};
 use crate::config::{Precision, Settings};
 use crate::error::{Error, Result};
 use crate::io::{self, PlyWriteOptions};
+use crate::left_out::{LeftOut, Tally};
 use crate::outcome::{CornerOut, EdgeOut, Outcome, PointFields, Timing};
 
 #[derive(Serialize)]
@@ -31,8 +32,15 @@ struct Report<'a> {
     timings: &'a [Timing],
     edges: &'a [EdgeOut],
     corners: &'a [CornerOut],
-    failures: &'a [String],
+    left_out: LeftOutReport<'a>,
     config: &'a Settings,
+}
+
+/// The candidates that gave no edge or corner: counted by reason, then each with its message.
+#[derive(Serialize)]
+struct LeftOutReport<'a> {
+    by_reason: Tally,
+    candidates: &'a [LeftOut],
 }
 
 #[derive(Serialize)]
@@ -51,6 +59,9 @@ struct Counts {
     edges: usize,
     corners: usize,
     moved: usize,
+    /// Candidates judged no sharp edge or corner (a fillet, a surface bending, ...).
+    left_out: usize,
+    /// Fits that could not be computed.
     failed_fits: usize,
 }
 
@@ -313,16 +324,22 @@ fn write_rectified(path: &Path, outcome: &Outcome, opts: &PlyWriteOptions) -> Re
     io::write_ply(path, &outcome.rectified, &attrs, &[], opts)
 }
 
+/// `scalar_edge_kind` of a corner in features.ply: no edge's kind.
+const NO_EDGE_KIND: u8 = 255;
+
 fn write_features(path: &Path, outcome: &Outcome, opts: &PlyWriteOptions) -> Result<()> {
     // Vertices: corners, then each edge's polyline, then its rectified edge points.
     let mut pos: Vec<[f64; 3]> = Vec::new();
     let mut kind: Vec<u8> = Vec::new();
     let mut edge_id: Vec<i32> = Vec::new();
+    // The edge's kind by the `edge_kind` code table (2 sharp); a corner belongs to no one edge.
+    let mut edge_kind: Vec<u8> = Vec::new();
     let mut lines: Vec<[u32; 2]> = Vec::new();
     for c in &outcome.corners {
         pos.push(c.position);
         kind.push(0);
         edge_id.push(-1);
+        edge_kind.push(NO_EDGE_KIND);
     }
     for e in &outcome.edges {
         let first = pos.len() as u32;
@@ -330,6 +347,7 @@ fn write_features(path: &Path, outcome: &Outcome, opts: &PlyWriteOptions) -> Res
             pos.push(*p);
             kind.push(1);
             edge_id.push(e.id as i32);
+            edge_kind.push(e.kind.code());
             if k > 0 {
                 lines.push([first + k as u32 - 1, first + k as u32]);
             }
@@ -340,6 +358,7 @@ fn write_features(path: &Path, outcome: &Outcome, opts: &PlyWriteOptions) -> Res
             pos.push(*p);
             kind.push(2);
             edge_id.push(e.id as i32);
+            edge_kind.push(e.kind.code());
         }
     }
     if pos.len() > i32::MAX as usize {
@@ -369,6 +388,10 @@ fn write_features(path: &Path, outcome: &Outcome, opts: &PlyWriteOptions) -> Res
             values: Column::I32(edge_id),
         },
         Attribute {
+            name: "scalar_edge_kind".into(),
+            values: Column::U8(edge_kind),
+        },
+        Attribute {
             name: "red".into(),
             values: Column::U8(red),
         },
@@ -392,6 +415,7 @@ fn write_report(
     timings: &[Timing],
 ) -> Result<()> {
     let f = &outcome.features;
+    let tally = Tally::of(&outcome.left_out);
     let report = Report {
         sharpedge: env!("CARGO_PKG_VERSION"),
         input: InputReport {
@@ -408,12 +432,16 @@ fn write_report(
             edges: outcome.edges.len(),
             corners: outcome.corners.len(),
             moved: outcome.moved.iter().filter(|&&m| m).count(),
-            failed_fits: outcome.failures.len(),
+            left_out: tally.judged(),
+            failed_fits: tally.failed(),
         },
         timings,
         edges: &outcome.edges,
         corners: &outcome.corners,
-        failures: &outcome.failures,
+        left_out: LeftOutReport {
+            by_reason: tally,
+            candidates: &outcome.left_out,
+        },
         config: settings,
     };
     let text = crate::json::pretty(&report)

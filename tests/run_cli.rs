@@ -41,10 +41,12 @@ fn summary_goes_to_stderr_with_counts_timings_and_outputs() {
     for part in [
         format!("points {}", c["points"]),
         format!("candidates {}", c["candidates"]),
-        format!("edges {}", c["edges"]),
-        format!("corners {}", c["corners"]),
+        format!(
+            "{} edges, {} corners; left out {} candidates",
+            c["edges"], c["corners"], c["left_out"]
+        ),
         format!("moved points {}", c["moved"]),
-        format!("failed fits {}", c["failed_fits"]),
+        format!("{} fit", c["failed_fits"]),
         "wrote out/rectified.ply\n".into(),
         "wrote out/features.ply\n".into(),
         "wrote out/edges.geojson\n".into(),
@@ -69,9 +71,9 @@ fn summary_goes_to_stderr_with_counts_timings_and_outputs() {
     ] {
         assert!(time.contains(&format!("{stage} ")), "{time}");
     }
-    // Without -v, no log lines: the summary is the whole output (4 lines + 4 outputs).
+    // Without -v, no log lines: the summary is the whole output (5 lines + 4 outputs).
     assert!(!e.contains("INFO"), "{e}");
-    assert_eq!(e.lines().count(), 8, "{e}");
+    assert_eq!(e.lines().count(), 9, "{e}");
 }
 
 #[test]

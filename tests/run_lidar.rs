@@ -353,6 +353,9 @@ fn las14_format7_with_extra_bytes_crs_and_evlrs_round_trips() {
         assert_eq!(f["geometry"]["coordinates"], e["polyline"]);
         assert_eq!(f["properties"]["id"], e["id"]);
         assert_eq!(f["properties"]["kind"], "edge");
+        assert_eq!(f["properties"]["edge_kind"], "sharp");
+        assert_eq!(f["properties"]["edge_kind"], e["kind"]);
+        assert_eq!(f["properties"]["convex"], e["convex"]);
         assert_eq!(f["properties"]["dihedral"], e["dihedral_deg"]);
         assert_eq!(f["properties"]["rms"], e["rms"]);
     }
@@ -360,6 +363,7 @@ fn las14_format7_with_extra_bytes_crs_and_evlrs_round_trips() {
         assert_eq!(f["geometry"]["type"], "Point");
         assert_eq!(f["geometry"]["coordinates"], k["position"]);
         assert_eq!(f["properties"]["kind"], "corner");
+        assert!(f["properties"]["edge_kind"].is_null());
     }
     // Georeferenced: the corner lies near the translated box.
     let x = features[12]["geometry"]["coordinates"][0].as_f64().unwrap();

@@ -202,6 +202,12 @@ fn output_contract_on_a_synth_box() {
     let kind = column(&feats, "scalar_kind");
     assert_eq!(kind.iter().filter(|&&k| k == 0.0).count(), corners.len());
     assert!(kind.contains(&2.0), "rectified edge points are present");
+    // Each edge vertex carries its edge's kind by the LAS edge_kind code table (2 sharp);
+    // corners none (255).
+    let edge_kind = column(&feats, "scalar_edge_kind");
+    for (k, ek) in kind.iter().zip(&edge_kind) {
+        assert_eq!(*ek, if *k == 0.0 { 255.0 } else { 2.0 });
+    }
 
     // ---- report.json ----
     assert_eq!(rep["sharpedge"], env!("CARGO_PKG_VERSION"), "the version");
@@ -225,6 +231,7 @@ fn output_contract_on_a_synth_box() {
             );
         }
         assert!(e["points"].as_u64().unwrap() > 0, "{e}");
+        assert_eq!(e["kind"], "sharp", "{e}");
         let rms = e["rms"].as_f64().unwrap();
         assert!(rms.is_finite() && rms >= 0.0, "{e}");
     }
@@ -276,6 +283,7 @@ fn output_contract_on_a_synth_box() {
         "edges",
         "corners",
         "moved",
+        "left_out",
         "failed_fits",
     ] {
         assert!(rep["counts"][k].is_u64(), "counts.{k}");

@@ -122,6 +122,17 @@ pub struct FrameScore {
     /// edge; the rest lies elsewhere (an occlusion boundary, a table rim, a false edge).
     pub found_length: f64,
     pub found_precision: f64,
+    /// The `convex` flags of the found edges that lie along a reference edge (most of their
+    /// length within the tolerance of it): box edges are convex, base edges concave.
+    pub convex: ConvexScore,
+}
+
+/// Found edges along a reference edge by their `convex` flag.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize)]
+pub struct ConvexScore {
+    pub correct: usize,
+    pub wrong: usize,
+    pub undecided: usize,
 }
 
 impl FrameScore {
@@ -461,7 +472,13 @@ fn run_frame(
         what: e.to_string(),
     })?;
     let points = cloud.len();
-    let outcome = pipeline::process(cloud, settings, &mut NoClock)?;
+    // The frames are organised RGB-D frames in their camera's coordinates: the sensor stood
+    // at the origin (it tells convex box edges from concave base edges).
+    let mut settings = settings.clone();
+    if settings.input.sensors.is_empty() {
+        settings.input.sensors.push([0.0; 3]);
+    }
+    let outcome = pipeline::process(cloud, &settings, &mut NoClock)?;
     if let Some(dir) = figures {
         let name = path
             .file_stem()
@@ -597,6 +614,13 @@ pub fn table(results: &[FrameResult]) -> String {
                 let _ = writeln!(s, "  median coverage ({kind:?}): {:.0} %", m * 100.0);
             }
         }
+        let c = r.score.convex;
+        let _ = writeln!(
+            s,
+            "  convex flags of found edges along a reference edge: {} correct, {} wrong, {} \
+             undecided",
+            c.correct, c.wrong, c.undecided
+        );
     }
     s
 }
@@ -635,9 +659,9 @@ fn edge_polyline(e: &EdgeOut) -> Vec<V3> {
 }
 
 /// Scores found edges against reference edges (see the module comment).
-pub fn score_frame(refs: &[RefEdge], found: &[EdgeOut], tolerance: f64) -> FrameScore {
+pub fn score_frame(refs: &[RefEdge], found_edges: &[EdgeOut], tolerance: f64) -> FrameScore {
     let step = tolerance / 5.0;
-    let found: Vec<Vec<V3>> = found.iter().map(edge_polyline).collect();
+    let found: Vec<Vec<V3>> = found_edges.iter().map(edge_polyline).collect();
     let edges = refs
         .iter()
         .map(|r| {
@@ -673,15 +697,28 @@ pub fn score_frame(refs: &[RefEdge], found: &[EdgeOut], tolerance: f64) -> Frame
     let mut total = 0usize;
     let mut near = 0usize;
     let mut found_length = 0.0;
-    for f in &found {
+    let mut convex = ConvexScore::default();
+    for (f, e) in found.iter().zip(found_edges) {
         found_length += f.windows(2).map(|w| norm(sub(w[1], w[0]))).sum::<f64>();
-        for q in samples(f, step) {
+        let qs = samples(f, step);
+        let mut along = vec![0usize; refs.len()];
+        for &q in &qs {
             total += 1;
-            if refs
-                .iter()
-                .any(|r| point_segment(q, r.start, r.end).0 <= tolerance)
-            {
-                near += 1;
+            let mut any = false;
+            for (r, n) in refs.iter().zip(&mut along) {
+                if point_segment(q, r.start, r.end).0 <= tolerance {
+                    *n += 1;
+                    any = true;
+                }
+            }
+            near += usize::from(any);
+        }
+        let best = (0..refs.len()).max_by_key(|&k| (along[k], std::cmp::Reverse(k)));
+        if let Some(k) = best.filter(|&k| 2 * along[k] > qs.len()) {
+            match e.convex {
+                None => convex.undecided += 1,
+                Some(c) if c == (refs[k].kind == RefKind::BoxEdge) => convex.correct += 1,
+                Some(_) => convex.wrong += 1,
             }
         }
     }
@@ -694,6 +731,7 @@ pub fn score_frame(refs: &[RefEdge], found: &[EdgeOut], tolerance: f64) -> Frame
         } else {
             1.0
         },
+        convex,
     }
 }
 
@@ -705,6 +743,7 @@ mod tests {
     fn edge(polyline: Vec<V3>) -> EdgeOut {
         EdgeOut {
             id: 0,
+            kind: crate::outcome::EdgeKind::Sharp,
             start: polyline[0],
             end: *polyline.last().unwrap(),
             direction: [1.0, 0.0, 0.0],
@@ -712,6 +751,7 @@ mod tests {
             rms: 0.0,
             corners: [None, None],
             convex: None,
+            convex_votes: Default::default(),
             dihedral_deg: None,
             polyline,
             closed: false,

@@ -40,6 +40,7 @@ use serde::Serialize;
 use crate::config::Settings;
 use crate::error::{Error, Result};
 use crate::geometry::{V3, add, dist, dot, norm, point_segment};
+use crate::left_out::LeftOut;
 use crate::outcome::{CornerOut, Outcome};
 use crate::pipeline::{self, LapClock};
 use crate::progress::Progress;
@@ -524,7 +525,7 @@ pub struct CaseResult {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub border: Option<BorderMetrics>,
     pub failed_fits: usize,
-    /// The first few failure messages of the pipeline.
+    /// The first few messages of the pipeline's failed fits.
     pub failures: Vec<String>,
     /// Points that fed the oracle's plane fits: margin from the edges (spacings), the fewest
     /// points of any face; `None` for non-polyhedral parts.
@@ -819,8 +820,10 @@ fn score_case(
         noise_h: out.scale.noise / h,
         radius_h: out.scale.radius / h,
     });
-    r.failed_fits = out.failures.len();
-    r.failures = out.failures.iter().take(5).cloned().collect();
+    // Failed fits only: candidates judged no sharp edge (fillets, ...) are outcomes.
+    let failed: Vec<&LeftOut> = out.left_out.iter().filter(|l| l.is_failure()).collect();
+    r.failed_fits = failed.len();
+    r.failures = failed.iter().take(5).map(|l| l.message.clone()).collect();
     r.candidates = Some(candidate_metrics(&out.features.candidate, truth, h));
 
     let oracle = matches!(case.kind, Kind::Polyhedral | Kind::Random | Kind::Pattern)

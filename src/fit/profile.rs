@@ -46,6 +46,12 @@ const WHAT: &str = "2D profile fit";
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Profile;
 
+/// Whether `e` is a profile fit's refusal of (nearly) parallel sides: a profile that does not
+/// turn, one flat surface rather than a failed fit.
+pub fn is_flat_profile(e: &Error) -> bool {
+    matches!(e, Error::Degenerate { what, why } if *what == WHAT && why == <Profile as Case<2>>::PARALLEL)
+}
+
 /// Result of [`super::fit_profile_2d`], in input coordinates. Reuse one across calls with
 /// [`super::fit_profile_2d_with`] to avoid allocating.
 #[derive(Clone, Debug, Default)]

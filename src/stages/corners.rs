@@ -17,6 +17,7 @@ use rayon::prelude::*;
 
 use crate::fit::{FitParams, fit_corner_3d};
 use crate::geometry::{add, dot, nearest_point_to_lines, norm, pca_line, point_line_distance, sub};
+use crate::left_out::{LeftOut, Reason};
 use crate::stages::edges::{EdgeResult, Surface};
 use crate::stages::segment::Segments;
 
@@ -51,11 +52,12 @@ pub struct CornerFit {
 }
 
 /// What the corner stage made of one vertex: its corner (the swarm's fit, or where its edges'
-/// end lines meet when the fit failed but they agree), and why the fit failed, if it did.
+/// end lines meet when the fit failed but they agree), and why the vertex gave no fitted
+/// corner, if it did not.
 #[derive(Debug, Clone, Default)]
 pub struct CornerOutcome {
     pub corner: Option<CornerFit>,
-    pub failure: Option<String>,
+    pub left_out: Option<LeftOut>,
 }
 
 /// Fits every vertex with at least two fitted edges, in parallel, each with its own RNG from
@@ -148,10 +150,13 @@ fn fit_vertex(
     if sides.len() < 2 {
         return CornerOutcome {
             corner: None,
-            failure: Some(format!(
-                "corner {v}: {} of its {} edges have enough rectified points near it",
-                sides.len(),
-                vertex.ends.len()
+            left_out: Some(LeftOut::vertex(
+                Reason::EdgesLeftOut,
+                format!(
+                    "corner {v}: {} of its {} edges have enough rectified points near it",
+                    sides.len(),
+                    vertex.ends.len()
+                ),
             )),
         };
     }
@@ -198,7 +203,7 @@ fn fit_vertex(
             None if let Some(why) = unsupported(f.searches.pso.point) => {
                 return CornerOutcome {
                     corner: None,
-                    failure: Some(why),
+                    left_out: Some(LeftOut::vertex(Reason::VirtualCorner, why)),
                 };
             }
             None => {
@@ -215,7 +220,7 @@ fn fit_vertex(
                         ],
                         edges: ids,
                     }),
-                    failure: None,
+                    left_out: None,
                 };
             }
             Some((k, d)) => format!(
@@ -244,7 +249,7 @@ fn fit_vertex(
         });
     CornerOutcome {
         corner,
-        failure: Some(failure),
+        left_out: Some(LeftOut::vertex(Reason::Failed, failure)),
     }
 }
 

@@ -22,6 +22,7 @@ use rayon::prelude::*;
 use crate::fit::{FitParams, ProfileFit, ProfileKnown, ProfileScratch, fit_profile_2d_zone};
 use crate::geometry::polyline::Polyline;
 use crate::geometry::{add, dot, norm, pca_line, perpendicular_basis, point_line_distance, sub};
+use crate::left_out::{Candidate, LeftOut, Reason};
 use crate::neighbours::Grid;
 use crate::stages::features::{LocalScale, Scale};
 use crate::stages::segment::Segments;
@@ -131,27 +132,51 @@ pub struct EdgeFit {
     pub rounding: f64,
 }
 
-/// Why a run gave no edge.
+/// Why a run gave no edge: the reason (a judgement, such as a fillet, or a fit that failed)
+/// and the message reported with it.
 #[derive(Debug, Clone, PartialEq)]
-pub enum EdgeError {
-    /// The run is no sharp edge: a fillet, a surface bending, too little evidence. Its
-    /// candidates are left out of the vertices too.
-    NotAnEdge(String),
-    /// The fit failed (too short between its vertices, too few points in its band, ...).
-    Failed(String),
+pub struct EdgeError {
+    pub reason: Reason,
+    pub message: String,
+    /// The fitted run was judged no sharp edge as a whole (a fillet, a surface bending, too
+    /// little evidence): its candidates are left out of the vertices too. A run left before
+    /// any slab pass came through (too short, too few points, no two slab fits) keeps them:
+    /// its vertices may still be corners.
+    pub not_an_edge: bool,
 }
 
-impl std::fmt::Display for EdgeError {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            EdgeError::NotAnEdge(s) | EdgeError::Failed(s) => f.write_str(s),
+impl EdgeError {
+    /// A run judged no sharp edge.
+    fn judged(reason: Reason, message: String) -> Self {
+        EdgeError {
+            reason,
+            message,
+            not_an_edge: true,
+        }
+    }
+
+    /// A run left out before it could be judged as a whole.
+    fn unfitted(reason: Reason, message: String) -> Self {
+        EdgeError {
+            reason,
+            message,
+            not_an_edge: false,
+        }
+    }
+
+    /// The report's record of it.
+    pub fn left_out(&self) -> LeftOut {
+        LeftOut {
+            kind: Candidate::Run,
+            reason: self.reason,
+            message: self.message.clone(),
         }
     }
 }
 
-impl From<String> for EdgeError {
-    fn from(s: String) -> Self {
-        EdgeError::Failed(s)
+impl std::fmt::Display for EdgeError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.message)
     }
 }
 
@@ -249,15 +274,18 @@ fn judge_roundings(mut fits: Vec<EdgeResult>, params: &EdgeParams) -> Vec<EdgeRe
         if let Ok(e) = f {
             let limit = fillet_limit(params, &e.scale);
             if e.rounding > limit {
-                *f = Err(EdgeError::NotAnEdge(format!(
-                    "edge {}: its faces meet through a rounding of radius {:.1} spacings, more \
-                     than {limit:.1} (edges.max_rounding = {}, or {FILLET_NOISE} noise sigmas \
-                     of {:.2} spacings): a fillet, not a sharp edge; left out",
-                    e.run,
-                    e.rounding,
-                    params.max_rounding,
-                    e.scale.noise / e.scale.spacing
-                )));
+                *f = Err(EdgeError::judged(
+                    Reason::Fillet,
+                    format!(
+                        "edge {}: its faces meet through a rounding of radius {:.1} spacings, \
+                         more than {limit:.1} (edges.max_rounding = {}, or {FILLET_NOISE} noise \
+                         sigmas of {:.2} spacings): a fillet, not a sharp edge; left out",
+                        e.run,
+                        e.rounding,
+                        params.max_rounding,
+                        e.scale.noise / e.scale.spacing
+                    ),
+                ));
             }
         }
     }
@@ -270,6 +298,8 @@ struct Pass {
     failed: usize,
     /// Slabs whose profile is a wide arc, not two faces (see `smooth_bend`).
     bends: usize,
+    /// Slabs whose profile does not turn (parallel sides: one flat surface).
+    flats: usize,
     first_failure: Option<String>,
     /// (distance from the slab's corner along the face, signed distance to the face's local
     /// line towards the other face) of every side and corner-region point, for the zone
@@ -347,7 +377,10 @@ fn fit_run(
 ) -> EdgeResult {
     let run = &segments.runs[k];
     let run_line = run.polyline().ok_or_else(|| {
-        EdgeError::Failed(format!("edge {k}: its centre line collapsed to a point"))
+        EdgeError::unfitted(
+            Reason::Failed,
+            format!("edge {k}: its centre line collapsed to a point"),
+        )
     })?;
     let band = params.band * scale.radius;
     let stretch = usable_stretch(segments, k, &run_line, scale, params, band)?;
@@ -413,13 +446,16 @@ fn usable_stretch(
         s[e] = if e == 0 { sv + margin } else { sv - margin };
     }
     if s[1] - s[0] < r {
-        return Err(EdgeError::Failed(format!(
-            "edge {k}: too short between its vertices: {:.1} spacings long, its slabs must \
+        return Err(EdgeError::unfitted(
+            Reason::TooShort,
+            format!(
+                "edge {k}: too short between its vertices: {:.1} spacings long, its slabs must \
              keep clear of its vertices from {:.1} to {:.1} spacings along it",
-            length / scale.spacing,
-            s[0] / scale.spacing,
-            s[1] / scale.spacing
-        )));
+                length / scale.spacing,
+                s[0] / scale.spacing,
+                s[1] / scale.spacing
+            ),
+        ));
     }
     Ok(Stretch::Open(run_line.at(s[0]), run_line.at(s[1])))
 }
@@ -551,11 +587,14 @@ fn keep_edge_slabs(
     pass.slabs.retain(|s| slab_angle(s) <= flat);
     let dropped = before - pass.slabs.len();
     if pass.slabs.len() < 2 {
-        return Err(EdgeError::NotAnEdge(format!(
-            "edge {k}: its faces turn by less than edges.min_turn = {}° along it: a surface \
+        return Err(EdgeError::judged(
+            Reason::Bending,
+            format!(
+                "edge {k}: its faces turn by less than edges.min_turn = {}° along it: a surface \
              bending, not a sharp edge; left out",
-            params.min_turn
-        )));
+                params.min_turn
+            ),
+        ));
     }
     pass.note_dropped(dropped, || {
         format!("edge {k}: {dropped} slab(s) whose faces turn by less than edges.min_turn left out")
@@ -589,19 +628,25 @@ fn judge_edge(
     params: &EdgeParams,
 ) -> EdgeResult {
     if pass.bends >= pass.slabs.len() {
-        return Err(EdgeError::NotAnEdge(format!(
-            "edge {k}: {} of its slab profiles are arcs wider than a fillet limit and only {} \
+        return Err(EdgeError::judged(
+            Reason::Curved,
+            format!(
+                "edge {k}: {} of its slab profiles are arcs wider than a fillet limit and only {} \
              are two faces: a fillet or a curved surface, not a sharp edge; left out",
-            pass.bends,
-            pass.slabs.len()
-        )));
+                pass.bends,
+                pass.slabs.len()
+            ),
+        ));
     }
     if pass.slabs.len() < MIN_SLABS {
-        return Err(EdgeError::NotAnEdge(format!(
-            "edge {k}: only {} slab fit(s) left, fewer than {MIN_SLABS}: too little to tell \
+        return Err(EdgeError::judged(
+            Reason::TooFewSlabs,
+            format!(
+                "edge {k}: only {} slab fit(s) left, fewer than {MIN_SLABS}: too little to tell \
              an edge from a tight bend of the surface; left out",
-            pass.slabs.len()
-        )));
+                pass.slabs.len()
+            ),
+        ));
     }
     let (line, rms, straight) = edge_line(&pass.slabs, scale, params);
     let mut angles: Vec<f64> = pass.slabs.iter().map(slab_angle).collect();
@@ -624,10 +669,13 @@ fn judge_edge(
     // Faces folding back onto each other at a few degrees are no part's edge but a misfit
     // (both sides on one face): seen on the anchor as a 3.6° "edge" 1.6 spacings long.
     if dihedral_deg < MIN_DIHEDRAL {
-        return Err(EdgeError::NotAnEdge(format!(
-            "edge {k}: its faces meet at {dihedral_deg:.1}°, less than {MIN_DIHEDRAL}°: both \
+        return Err(EdgeError::judged(
+            Reason::OneSurface,
+            format!(
+                "edge {k}: its faces meet at {dihedral_deg:.1}°, less than {MIN_DIHEDRAL}°: both \
              sides lie on one surface; left out"
-        )));
+            ),
+        ));
     }
     // A fillet is no sharp edge: the zone where the scan leaves the faces is the tangent
     // length t = R / tan(β/2) of a rounding of radius R between faces at the interior angle β
@@ -1050,18 +1098,21 @@ fn slab_pass(
     rng: &mut SmallRng,
     scratch: &mut ProfileScratch,
     out: &mut ProfileFit,
-) -> Result<Pass, String> {
+) -> Result<Pass, EdgeError> {
     let (k, scale, params) = (ctx.k, ctx.scale, ctx.params);
     let (t0, t1) = ctx.stretch.on(centre);
     if t1 - t0 <= 0.0 {
-        return Err(format!("edge {k}: its centre line does not cover the edge"));
+        return Err(EdgeError::unfitted(
+            Reason::Failed,
+            format!("edge {k}: its centre line does not cover the edge"),
+        ));
     }
     let closed = matches!(ctx.stretch, Stretch::Closed);
     let band_pts = band_points(ctx, centre, band, (t0, t1));
     if band_pts.len() < 2 * params.slab_points.min(20) {
-        return Err(format!(
-            "edge {k}: only {} points in its band",
-            band_pts.len()
+        return Err(EdgeError::unfitted(
+            Reason::Failed,
+            format!("edge {k}: only {} points in its band", band_pts.len()),
         ));
     }
     // Slabs of equal thickness, about `slab_points` points each.
@@ -1078,6 +1129,7 @@ fn slab_pass(
         slabs: Vec::with_capacity(nslab),
         failed: 0,
         bends: 0,
+        flats: 0,
         first_failure: None,
         residuals: Vec::new(),
     };
@@ -1141,17 +1193,51 @@ fn slab_pass(
             }
             Err(e) => {
                 pass.failed += 1;
+                pass.flats += usize::from(crate::fit::profile::is_flat_profile(&e));
                 pass.first_failure
                     .get_or_insert_with(|| format!("edge {k} slab at t = {tc:.4}: {e}"));
             }
         }
     }
     if pass.slabs.len() < 2 {
-        return Err(pass
-            .first_failure
-            .unwrap_or_else(|| format!("edge {k}: fewer than two slabs fitted")));
+        return Err(too_few_slab_fits(pass, nslab, t1 - t0, k, scale));
     }
     Ok(pass)
+}
+
+/// Why a pass gave fewer than two slab fits: most of its slab profiles were arcs (a fillet or
+/// a curved surface) or flat (a surface bending too little to fit two sides), its stretch
+/// held a single slab (too little to tell an edge from a bend), or its slab fits failed.
+fn too_few_slab_fits(pass: Pass, nslab: usize, length: f64, k: usize, scale: &Scale) -> EdgeError {
+    if pass.failed == 0 {
+        return EdgeError::unfitted(
+            Reason::TooFewSlabs,
+            format!(
+                "edge {k}: room for {nslab} slab only along its {:.1} spacings: too little to \
+                 tell an edge from a tight bend of the surface; left out",
+                length / scale.spacing
+            ),
+        );
+    }
+    let reason = if 2 * (pass.bends + pass.flats) <= pass.failed {
+        Reason::Failed
+    } else if pass.bends >= pass.flats {
+        Reason::Curved
+    } else {
+        Reason::Bending
+    };
+    let first = pass.first_failure.unwrap_or_default();
+    EdgeError::unfitted(
+        reason,
+        format!(
+            "edge {k}: {} of {} slab fits failed ({} arcs wider than edges.max_rounding, {} \
+             flat profiles), first: {first}",
+            pass.failed,
+            pass.failed + pass.slabs.len(),
+            pass.bends,
+            pass.flats
+        ),
+    )
 }
 
 /// The points of the band: within `band` of the centre line, each at the arc length of its

@@ -2,12 +2,13 @@
 //! order `crate::pipeline` runs them: scale (each point's spacing, noise and radius) ->
 //! features (per-point PCA, sharpness, candidate edge points) -> segment (edge runs and the
 //! vertices where they meet) -> edges (the paper's constrained 2D fit per slab across each
-//! edge) -> corners (the constrained 3D fit per vertex) -> rectify (abnormal points moved onto
-//! the fitted faces).
+//! edge) -> corners (the constrained 3D fit per vertex) -> convexity (the side of the material
+//! of each edge) -> rectify (abnormal points moved onto the fitted faces).
 //!
 //! Stages use the layers below them (geometry, fit, neighbours, cloud) and the stages before
 //! them, never the pipeline, the writers or a later stage.
 
+pub mod convexity;
 pub mod corners;
 pub mod edges;
 pub mod features;
