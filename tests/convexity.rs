@@ -127,8 +127,11 @@ fn rgbd_box_edges_are_convex_and_base_edges_concave() {
     for r in &results {
         let c = r.score.convex;
         assert_eq!(c.wrong, 0, "{}: {c:?}", r.path.display());
+        assert_eq!(c.undecided, 0, "{}: {c:?}", r.path.display());
         decided += c.correct;
     }
-    // Measured: 4 of 4 on box.ply, 3 of 3 on stacked_boxes.ply.
-    assert!(decided >= 6, "{results:#?}");
+    // Measured with the local scale: every found edge along a reference edge decided right,
+    // 3 on box.ply and 2 on stacked_boxes.ply (with the cloud-wide scale 4 and 3 of other
+    // edges).
+    assert!(decided >= 5, "{results:#?}");
 }

@@ -101,9 +101,11 @@ fn autzen_fails_fewer_fits_than_it_leaves_out() {
     let failed = counts["failed_fits"].as_u64().unwrap();
     let left_out = counts["left_out"].as_u64().unwrap();
     // Measured: 168 left out (fillet 15, curved 24, bending 48, too few slabs 42, too short
-    // 26, edges left out 13), 3 fits failed; before the reasons, all 171 read "failed".
+    // 26, edges left out 13), 3 fits failed; before the reasons, all 171 read "failed". With
+    // the local scale (issue 17) far fewer candidates reach the fits: 35 left out (bending
+    // 17, too few slabs 7, curved 6, fillet 3, edges left out 2), 0 failed.
     assert!(
-        left_out >= 100 && failed * 10 < left_out,
+        left_out >= 20 && failed * 10 < left_out,
         "{failed} failed, {left_out} left out: {}",
         rep["left_out"]["by_reason"]
     );
