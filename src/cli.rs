@@ -601,18 +601,7 @@ fn bench(_cli: &Cli, a: &BenchArgs) -> anyhow::Result<()> {
             frames::DEFAULT_TOLERANCE,
             a.figures.as_deref(),
         )?;
-        let text = sharpedge::json::pretty(&results)? + "\n";
-        sharpedge::io::write_atomic(&a.out, |w| {
-            w.write_all(text.as_bytes())
-                .map_err(|e| sharpedge::Error::io(&a.out, "cannot write bench results", e))
-        })?;
-        if a.json {
-            print!("{text}");
-        } else {
-            print!("{}", frames::table(&results));
-            println!("wrote {}", a.out.display());
-        }
-        return Ok(());
+        return write_bench(a, &results, || frames::table(&results));
     }
     let points = a.points.unwrap_or(if a.patterns {
         sharpedge::bench::patterns::DEFAULT_POINTS
@@ -631,7 +620,17 @@ fn bench(_cli: &Cli, a: &BenchArgs) -> anyhow::Result<()> {
         cad: a.cad,
         settings,
     })?;
-    let text = sharpedge::json::pretty(&report)? + "\n";
+    write_bench(a, &report, || sharpedge::bench::table(&report))
+}
+
+/// Writes bench results as JSON to `--out` (atomically) and prints them: the JSON with
+/// `--json`, the table otherwise.
+fn write_bench<T: serde::Serialize>(
+    a: &BenchArgs,
+    results: &T,
+    table: impl FnOnce() -> String,
+) -> anyhow::Result<()> {
+    let text = sharpedge::json::pretty(results)? + "\n";
     sharpedge::io::write_atomic(&a.out, |w| {
         w.write_all(text.as_bytes())
             .map_err(|e| sharpedge::Error::io(&a.out, "cannot write bench results", e))
@@ -639,7 +638,7 @@ fn bench(_cli: &Cli, a: &BenchArgs) -> anyhow::Result<()> {
     if a.json {
         print!("{text}");
     } else {
-        print!("{}", sharpedge::bench::table(&report));
+        print!("{}", table());
         println!("wrote {}", a.out.display());
     }
     Ok(())
