@@ -128,8 +128,6 @@ pub struct EdgeFit {
     /// The scale of the surface along the edge (its points' medians), which every length of
     /// its fit was measured in.
     pub scale: Scale,
-    /// Radius of the rounding its faces meet through, in spacings (from the zone).
-    pub rounding: f64,
 }
 
 /// Why a run gave no edge: the reason (a judgement, such as a fillet, or a fit that failed)
@@ -218,7 +216,7 @@ pub fn fit_edges(
         grid,
         ..
     } = *surface;
-    let fits: Vec<EdgeResult> = (0..segments.runs.len())
+    (0..segments.runs.len())
         .into_par_iter()
         .map_init(
             || (ProfileScratch::default(), ProfileFit::default()),
@@ -245,8 +243,7 @@ pub fn fit_edges(
                 )
             },
         )
-        .collect();
-    judge_roundings(fits, params)
+        .collect()
 }
 
 /// A fillet rounds more than this many noise sigmas (when wider than `edges.max_rounding`
@@ -265,31 +262,6 @@ fn fillet_limit(params: &EdgeParams, scale: &Scale) -> f64 {
         0.0
     };
     params.max_rounding.max(FILLET_NOISE * sigmas)
-}
-
-/// Leaves out the edges whose faces meet through a rounding wider than a fillet limit:
-/// `edges.max_rounding` spacings, or [`FILLET_NOISE`] sigmas where that is wider.
-fn judge_roundings(mut fits: Vec<EdgeResult>, params: &EdgeParams) -> Vec<EdgeResult> {
-    for f in &mut fits {
-        if let Ok(e) = f {
-            let limit = fillet_limit(params, &e.scale);
-            if e.rounding > limit {
-                *f = Err(EdgeError::judged(
-                    Reason::Fillet,
-                    format!(
-                        "edge {}: its faces meet through a rounding of radius {:.1} spacings, \
-                         more than {limit:.1} (edges.max_rounding = {}, or {FILLET_NOISE} noise \
-                         sigmas of {:.2} spacings): a fillet, not a sharp edge; left out",
-                        e.run,
-                        e.rounding,
-                        params.max_rounding,
-                        e.scale.noise / e.scale.spacing
-                    ),
-                ));
-            }
-        }
-    }
-    fits
 }
 
 /// What one pass of slab fits along a centre line gives.
@@ -684,12 +656,24 @@ fn judge_edge(
     // at obtuse angles (2.4x at 135°): the radius taken is the one of the zone less a bin, so
     // a noisy zone never turns a sharp obtuse edge into a fillet (seen: an octagonal prism's
     // edge at 6.0 spacings).
-    // Whether that is more than the scanner's own rounding is judged over all edges
-    // (`judge_roundings`).
-    let rounding =
-        (zone.raw - 0.5 * scale.spacing).max(0.0) * (0.5 * dihedral_deg.to_radians()).tan();
+    // The limit grows with the noise (see `fillet_limit`).
+    let rounding = (zone.raw - 0.5 * scale.spacing).max(0.0)
+        * (0.5 * dihedral_deg.to_radians()).tan()
+        / scale.spacing;
+    let limit = fillet_limit(params, scale);
+    if rounding > limit {
+        return Err(EdgeError::judged(
+            Reason::Fillet,
+            format!(
+                "edge {k}: its faces meet through a rounding of radius {rounding:.1} spacings, \
+                 more than {limit:.1} (edges.max_rounding = {}, or {FILLET_NOISE} noise sigmas \
+                 of {:.2} spacings): a fillet, not a sharp edge; left out",
+                params.max_rounding,
+                scale.noise / scale.spacing
+            ),
+        ));
+    }
     Ok(EdgeFit {
-        rounding: rounding / scale.spacing,
         run: k,
         zone: zone.raw,
         zone_known: zone.known,
