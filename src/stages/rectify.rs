@@ -130,15 +130,14 @@ pub fn rectify(
             })
             .collect();
         let zone = incident.iter().map(|&k| reach_of[k]).fold(0.0, f64::max);
-        let widest = |f: &dyn Fn(&EdgeFit) -> f64| {
-            incident
-                .iter()
-                .filter_map(|&k| edges[k].as_ref().ok())
-                .map(f)
-                .fold(0.0, f64::max)
-        };
-        let radius = 2.5 * widest(&|e| e.scale.radius) + zone;
-        let max_move = widest(&max_move_of);
+        // At the widest scale of the corner's edges.
+        let widest = incident
+            .iter()
+            .filter_map(|&k| edges[k].as_ref().ok())
+            .map(|e| e.scale.radius)
+            .fold(0.0, f64::max);
+        let radius = 2.5 * widest + zone;
+        let max_move = params.max_move * widest;
         let mut planes: Vec<([f64; 3], [f64; 3])> = Vec::new(); // (point, unit normal)
         for &k in &incident {
             let (Some(g), Some(faces)) = (&geometry[k], faces_of[k]) else {

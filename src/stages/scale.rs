@@ -225,17 +225,15 @@ pub fn local_scale_in(
     if raw.iter().all(Option::is_none) {
         return Err(Error::Degenerate {
             what: "scale estimate",
-            why: format!(
-                "no point has {} distinct neighbours spread over a surface; the cloud is too \
-                 small or lies on a line",
-                8
-            ),
+            why: "no point has 8 distinct neighbours spread over a surface; the cloud is too \
+                  small or lies on a line"
+                .into(),
         });
     }
     // Smoothing: the samples within SMOOTH_CELLS cells of each sample.
     let sample_pos: Vec<[f64; 3]> = samples.iter().map(|&i| positions[i as usize]).collect();
-    let sample_grid = Grid::new(&sample_pos, SMOOTH_CELLS * SAMPLE_CELL * spacing)?;
     let reach = SMOOTH_CELLS * SAMPLE_CELL * spacing;
+    let sample_grid = Grid::new(&sample_pos, reach)?;
     let smooth: Vec<(f64, f64)> = (0..samples.len())
         .into_par_iter()
         .map(|s| {
