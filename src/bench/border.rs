@@ -21,6 +21,7 @@
 //! not within the edge tolerance of a required true stretch (a seen sharp edge).
 
 use crate::geometry::{V3, dot, norm, scale, sub};
+use crate::neighbours::Grid;
 use crate::synth::{GroundTruth, PointTruth, TruthSurface};
 
 use super::score::SegmentSet;
@@ -52,7 +53,12 @@ fn continues(gt: &GroundTruth, a: u32, b: u32) -> bool {
 pub fn border_points(gt: &GroundTruth, truth: &[PointTruth], pitch: f64) -> Vec<bool> {
     let r = BORDER_RADIUS * pitch;
     let usable = |t: &PointTruth| !t.outlier && t.face != u32::MAX;
-    let set = SegmentSet::new(truth.iter().map(|t| (t.surface, t.surface)).collect(), r);
+    let places: Vec<V3> = truth.iter().map(|t| t.surface).collect();
+    // The neighbour grid's radius query, not a segment set of zero-length segments: no list
+    // per point.
+    let Ok(grid) = Grid::new(&places, r) else {
+        return vec![false; truth.len()];
+    };
     truth
         .iter()
         .map(|t| {
@@ -63,14 +69,13 @@ pub fn border_points(gt: &GroundTruth, truth: &[PointTruth], pitch: f64) -> Vec<
                 return false;
             };
             let (mut sum, mut n) = ([0.0; 3], 0usize);
-            for (j, _) in set.all_within(t.surface) {
-                let q = &truth[j];
+            grid.for_each_within(t.surface, r, |j, d, _| {
+                let q = &truth[j as usize];
                 if usable(q) && continues(gt, t.face, q.face) {
-                    let d = sub(q.surface, t.surface);
                     sum = [0, 1, 2].map(|k| sum[k] + d[k]);
                     n += 1;
                 }
-            }
+            });
             // The point itself is one of them; alone, it has no side to speak of.
             if n < 2 {
                 return false;
