@@ -108,13 +108,6 @@ pub struct Features {
     pub split_threshold: f32,
 }
 
-/// PCA of the points within `r` of `q`. `None` with fewer than 3 neighbours.
-pub fn local_pca(grid: &Grid, q: [f64; 3], r: f64) -> Option<LocalPca> {
-    let mut m = [0.0f64; 10];
-    grid.for_each_within(q, r, |_, d, _| add_moments(&mut m, d));
-    pca_from_moments(&m)
-}
-
 /// Cells per unit of parallel work: a few thousand points.
 const BLOCK_CHUNK: usize = 256;
 
