@@ -8,12 +8,13 @@
 use serde::Serialize;
 
 use crate::cloud::Cloud;
-use crate::geometry::{norm, sub};
+use crate::geometry::{dot, norm, sub};
 use crate::left_out::LeftOut;
 use crate::stages::convexity::{Convexity, Votes};
 use crate::stages::corners::{CornerFit, EdgeGeometry};
 use crate::stages::edges::EdgeResult;
 use crate::stages::features::{Features, Scale};
+use crate::stages::plane_corners::FaceEdge;
 use crate::stages::segment::Segments;
 
 /// The `edge_kind` code of each point and edge, one table for the LAS extra bytes, the
@@ -223,6 +224,51 @@ pub fn describe(
         })
         .collect();
     (edges, corners)
+}
+
+/// An edge where two planar faces meet between two corners (`stages::plane_corners`): too
+/// short for the edge stage's slabs, placed by the faces' planes. It has no slab fits, so no
+/// rectified edge points and no fit errors.
+pub fn plane_edge(id: usize, edge: &FaceEdge, convexity: &Convexity) -> EdgeOut {
+    let (start, end) = (edge.start, edge.end);
+    let d = sub(end, start);
+    let len = norm(d);
+    EdgeOut {
+        id,
+        kind: EdgeKind::Sharp,
+        start,
+        end,
+        direction: d.map(|x| x / len.max(f64::MIN_POSITIVE)),
+        points: edge.points,
+        rms: 0.0,
+        corners: edge.corners.map(Some),
+        convex: convexity.convex(),
+        convex_votes: convexity.votes(),
+        dihedral_deg: Some(
+            dot(edge.traces[0], edge.traces[1])
+                .clamp(-1.0, 1.0)
+                .acos()
+                .to_degrees(),
+        ),
+        polyline: vec![start, end],
+        closed: false,
+        rectified: Vec::new(),
+        error: None,
+    }
+}
+
+/// Adds every edge to the corners it ends at (an edge joined to a corner by its faces' planes
+/// was not among the edges that met at the corner's vertex).
+pub fn link_corners(edges: &[EdgeOut], corners: &mut [CornerOut]) {
+    for e in edges {
+        for c in e.corners.iter().flatten() {
+            if let Some(c) = corners.get_mut(*c) {
+                if !c.edges.contains(&e.id) {
+                    c.edges.push(e.id);
+                }
+            }
+        }
+    }
 }
 
 /// sharpedge's per-point fields, shared by the PLY and the LAS/LAZ output.

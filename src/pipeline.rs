@@ -14,13 +14,15 @@ use crate::error::{Error, Result};
 use crate::io;
 use crate::left_out::{LeftOut, Tally};
 use crate::neighbours::{self, Grid, KdTree};
-use crate::outcome::{Outcome, Timing, describe};
+use crate::outcome::{self, Outcome, Timing, describe};
 use crate::progress::Progress;
 use crate::report;
 use crate::stages::convexity;
 use crate::stages::corners::{self, CornerFit};
 use crate::stages::edges;
+use crate::stages::faces;
 use crate::stages::features::{self, Scale};
+use crate::stages::plane_corners;
 use crate::stages::rectify;
 use crate::stages::scale;
 use crate::stages::segment;
@@ -182,6 +184,9 @@ pub fn process(cloud: Cloud, settings: &Settings, clock: &mut impl LapClock) -> 
     );
     drop(progress);
     clock.lap("features");
+    let planar = faces::planar_faces(&cloud.positions, &grid, &features, &local);
+    tracing::info!("{} planar faces", planar.planes.len());
+    clock.lap("faces");
     // Edge runs are grown at the scale of the candidates (the points near edges), not of the
     // whole cloud.
     let run_scale = local
@@ -264,7 +269,22 @@ pub fn process(cloud: Cloud, settings: &Settings, clock: &mut impl LapClock) -> 
             corner_list.push(c);
         }
     }
-    let geometry = corners::edge_geometry(&segments, &fits, &corner_list, &corner_of_vertex);
+    // Corners where planar faces meet: they refine the fitted corners they coincide with
+    // and add those whose edges were too short to fit.
+    let plane_found = plane_corners::face_corners(
+        &cloud.positions,
+        &grid,
+        &features,
+        &local,
+        &planar,
+        &settings.edges,
+    );
+    let plane_edges =
+        plane_corners::face_edges(&cloud.positions, &grid, &features, &planar, &plane_found);
+    let corner_of_plane = plane_corners::place_corners(&plane_found, &mut corner_list);
+    let mut geometry = corners::edge_geometry(&segments, &fits, &corner_list, &corner_of_vertex);
+    let new_edges =
+        plane_corners::place_edges(&plane_edges, &plane_found, &corner_of_plane, &mut geometry);
     // Reported edge ids: the fitted runs in run order.
     let mut edge_of_run: Vec<Option<u32>> = vec![None; fits.len()];
     let mut next = 0u32;
@@ -286,7 +306,20 @@ pub fn process(cloud: Cloud, settings: &Settings, clock: &mut impl LapClock) -> 
     clock.lap("rectify");
     let convexity = convexity::convexity(&surface, &fits, &settings.input.sensors);
     clock.lap("convexity");
-    let (edges, corners) = describe(&fits, &geometry, &corner_list, &edge_of_run, &convexity);
+    let (mut edges, mut corners) =
+        describe(&fits, &geometry, &corner_list, &edge_of_run, &convexity);
+    // Plane edges after the fitted ones, their side of the material voted like theirs.
+    for fe in &new_edges {
+        let side = convexity::segment_convexity(
+            &surface,
+            [fe.start, fe.end],
+            fe.traces,
+            fe.scale,
+            &settings.input.sensors,
+        );
+        edges.push(outcome::plane_edge(edges.len(), fe, &side));
+    }
+    outcome::link_corners(&edges, &mut corners);
     Ok(Outcome {
         cloud,
         scale,

@@ -28,6 +28,7 @@ use serde::Serialize;
 
 use crate::geometry::{add, cross, dot, norm, scale, sub, unit};
 use crate::stages::edges::{EdgeFit, EdgeResult, Surface};
+use crate::stages::features::Scale;
 
 /// Slabs per edge whose corners send rays (evenly spread along the edge).
 const SLABS: usize = 5;
@@ -163,23 +164,62 @@ fn edge_convexity(
     sensors: &[[f64; 3]],
     bounds: ([f64; 3], [f64; 3]),
 ) -> Convexity {
-    // The scale of the surface along this edge.
-    let sc = e.scale;
-    // A tube half a neighbourhood wide: a ray through a surface meets several of its points
-    // (a spacing wide would slip between scan lines), and two surfaces closer than its width
-    // count as one.
-    let tube = 0.5 * sc.radius + 2.0 * sc.noise;
     let n = e.slabs.len();
     let picks: Vec<usize> = if n <= SLABS {
         (0..n).collect()
     } else {
         (0..SLABS).map(|i| (2 * i + 1) * n / (2 * SLABS)).collect()
     };
+    let samples: Vec<([f64; 3], [[f64; 3]; 2])> = picks
+        .iter()
+        .map(|&i| (e.slabs[i].corner, e.slabs[i].faces))
+        .collect();
+    sample_convexity(surface, &samples, &e.scale, e.zone, sensors, bounds)
+}
+
+/// The side of the material of a straight edge from `ends[0]` to `ends[1]` whose faces leave
+/// it along `traces` (an edge placed by two planar faces, `stages::plane_corners`), voted at
+/// `SLABS` points spread along it as for a fitted edge.
+pub fn segment_convexity(
+    surface: &Surface,
+    ends: [[f64; 3]; 2],
+    traces: [[f64; 3]; 2],
+    scale: Scale,
+    sensors: &[[f64; 3]],
+) -> Convexity {
+    let Some(bounds) = bounds(surface.positions) else {
+        return Convexity::default();
+    };
+    let samples: Vec<([f64; 3], [[f64; 3]; 2])> = (0..SLABS)
+        .map(|i| {
+            let t = (2 * i + 1) as f64 / (2 * SLABS) as f64;
+            (
+                [0, 1, 2].map(|k| ends[0][k] + t * (ends[1][k] - ends[0][k])),
+                traces,
+            )
+        })
+        .collect();
+    sample_convexity(surface, &samples, &scale, 0.0, sensors, bounds)
+}
+
+/// Votes from points on an edge (each with its two face traces): `sc` is the surface's scale
+/// there and `zone` the half-width of its rounding.
+fn sample_convexity(
+    surface: &Surface,
+    samples: &[([f64; 3], [[f64; 3]; 2])],
+    sc: &Scale,
+    zone: f64,
+    sensors: &[[f64; 3]],
+    bounds: ([f64; 3], [f64; 3]),
+) -> Convexity {
+    // A tube half a neighbourhood wide: a ray through a surface meets several of its points
+    // (a spacing wide would slip between scan lines), and two surfaces closer than its width
+    // count as one.
+    let tube = 0.5 * sc.radius + 2.0 * sc.noise;
     let mut out = Convexity::default();
-    for &i in &picks {
-        let s = &e.slabs[i];
-        let Some(wg) = wedge(s.faces) else { continue };
-        match sensor_side(&wg, s.corner, sensors) {
+    for &(corner, faces) in samples {
+        let Some(wg) = wedge(faces) else { continue };
+        match sensor_side(&wg, corner, sensors) {
             Some(true) => out.sensors.convex += 1,
             Some(false) => out.sensors.concave += 1,
             None => {}
@@ -201,14 +241,14 @@ fn edge_convexity(
             // no longer reaches them: its angle to the nearer face is `half - turn` inside.
             let clear = |angle: f64| {
                 (tube + 3.0 * sc.noise) / angle.min(0.5 * std::f64::consts::PI).sin().max(0.05)
-                    + e.zone
+                    + zone
                     + tube
             };
             let start_in = clear(wg.half - inside_turn * sign.abs());
             let start_out = clear(std::f64::consts::PI - wg.half - outside_turn * sign.abs());
             out.pairs += 1;
-            let inner = crossings(surface, s.corner, din, start_in, tube, bounds);
-            let outer = crossings(surface, s.corner, dout, start_out, tube, bounds);
+            let inner = crossings(surface, corner, din, start_in, tube, bounds);
+            let outer = crossings(surface, corner, dout, start_out, tube, bounds);
             match (inner % 2, outer % 2) {
                 (1, 0) => out.rays.convex += 1,
                 (0, 1) => out.rays.concave += 1,

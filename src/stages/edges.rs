@@ -255,7 +255,7 @@ pub fn fit_edges(
 const FILLET_NOISE: f64 = 30.0;
 
 /// The widest rounding radius of a sharp edge, in spacings, at `scale` (see [`FILLET_NOISE`]).
-fn fillet_limit(params: &EdgeParams, scale: &Scale) -> f64 {
+pub fn fillet_limit(params: &EdgeParams, scale: &Scale) -> f64 {
     let sigmas = if scale.spacing > 0.0 {
         scale.noise / scale.spacing
     } else {

@@ -1,0 +1,431 @@
+//! Planar faces: the scan's flat faces, grown point by point from the flattest points, each
+//! with the plane fitted to all of its points.
+//!
+//! Inputs: positions, the neighbour `Grid`, the `Features` (normals, candidate and outlier
+//! masks, surface variation), the `LocalScale`. Output: `Faces` — a face label per point
+//! (`NO_FACE` for edge candidates, outliers and points on no flat face) and one `Plane` per
+//! face.
+//!
+//! Why: an edge's slabs see a few radii of each face, a corner's fit only its edges' ends.
+//! A flat face carries thousands of points of evidence about where it is, and two or three
+//! planes meet exactly where the sharp edge or corner of the part is — wherever its edges are
+//! too short for slabs (a hole of a few radii, a narrow step) or too rounded for the scan to
+//! show them. The corner stage uses the planes (see `stages::corners::plane_corners`).
+//!
+//! Growing: a face starts at the flattest point not yet taken (lowest surface variation; ties
+//! by id) and takes, breadth first, neighbours within two spacings whose normal is within
+//! `NORMAL_TOLERANCE` of the face's plane and which lie within `PLANE_SIGMAS` noise sigmas
+//! of it; the plane is refitted whenever the face has grown by half. A grown region is a face
+//! when it has `MIN_FACE_POINTS` points and its points scatter about its plane no more than
+//! noise explains (curved surfaces fail this and keep no face). Edge candidates never join a
+//! face: their neighbourhoods straddle two faces or a rounding.
+
+use std::collections::VecDeque;
+
+use crate::geometry::moments::{add_moments, pca_from_moments};
+use crate::geometry::{dot, sub};
+use crate::neighbours::Grid;
+use crate::stages::features::{Features, LocalScale};
+
+/// Label of a point on no planar face.
+pub const NO_FACE: u32 = u32::MAX;
+
+/// A point joins a face when its normal is within this many degrees of the face's.
+const NORMAL_TOLERANCE: f64 = 15.0;
+/// ... and when it lies within this many noise sigmas of the face's plane (plus
+/// `PLANE_SLACK` spacings, for noise-free scans).
+const PLANE_SIGMAS: f64 = 3.0;
+const PLANE_SLACK: f64 = 0.05;
+/// Neighbours within this many local spacings are reached from a face point: sampling gaps
+/// of scan lines and grids are measured in the local spacing, so two bridge them.
+const REACH: f64 = 2.0;
+/// The fewest points of a face, and the fewest in neighbourhoods of median size: a face is
+/// wider than one neighbourhood (at high noise, growing leaves flat-looking scraps of a few
+/// dozen points between the faces, tilted by the noise).
+const MIN_FACE_POINTS: usize = 20;
+const MIN_FACE_NEIGHBOURHOODS: usize = 1;
+/// A face may refuse at most this share of its size of neighbouring points that are no edge
+/// candidates (noise puts a few beyond its tolerances; a curved surface's points all round).
+const OPEN_SHARE: f64 = 0.05;
+/// A face's RMS distance to its plane may exceed its median noise sigma by this factor (plus
+/// `PLANE_SLACK` spacings): a flat face scatters by sigma, a curved patch by its sag.
+const FLAT_RMS: f64 = 1.5;
+
+/// One planar face: the points with `n · x = offset` (unit normal, sign arbitrary).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Plane {
+    pub normal: [f64; 3],
+    pub offset: f64,
+    /// Centroid of the face's points.
+    pub centroid: [f64; 3],
+    pub points: usize,
+    /// RMS distance of the face's points to the plane.
+    pub rms: f64,
+    /// Median local spacing and noise sigma of the face's points.
+    pub spacing: f64,
+    pub noise: f64,
+}
+
+impl Plane {
+    /// Signed distance of `p` from the plane.
+    pub fn distance(&self, p: [f64; 3]) -> f64 {
+        dot(self.normal, sub(p, self.centroid))
+    }
+}
+
+/// Face labels per point and the faces' planes.
+#[derive(Debug, Clone, Default)]
+pub struct Faces {
+    pub label: Vec<u32>,
+    pub planes: Vec<Plane>,
+}
+
+/// Grows the planar faces of the scan (see the module comment).
+pub fn planar_faces(
+    positions: &[[f64; 3]],
+    grid: &Grid,
+    features: &Features,
+    scale: &LocalScale,
+) -> Faces {
+    let n = positions.len();
+    let eligible = |i: usize| !features.candidate[i] && !features.outlier[i];
+    let mut seeds: Vec<u32> = (0..n as u32).filter(|&i| eligible(i as usize)).collect();
+    seeds.sort_by(|&a, &b| {
+        features.variation[a as usize]
+            .total_cmp(&features.variation[b as usize])
+            .then(a.cmp(&b))
+    });
+    let cos_tol = NORMAL_TOLERANCE.to_radians().cos();
+    let min_points = {
+        let mut counts: Vec<u32> = seeds.iter().map(|&i| features.count[i as usize]).collect();
+        let mid = counts.len() / 2;
+        let median = if counts.is_empty() {
+            0
+        } else {
+            *counts.select_nth_unstable(mid).1 as usize
+        };
+        MIN_FACE_POINTS.max(MIN_FACE_NEIGHBOURHOODS * median)
+    };
+    // 0 = free, 1 = taken by a face or tried as part of a region that was no face.
+    let mut taken = vec![false; n];
+    // Taken by a region that was no face (a curved patch, a scrap): such points around a
+    // region mean that the surface goes on around it, as refused points do.
+    let mut scrap = vec![false; n];
+    // The region (seed id + 1) that last refused each point, and the points refused.
+    let mut refused_by = vec![0u32; n];
+    let mut refused: Vec<u32> = Vec::new();
+    let mut label = vec![NO_FACE; n];
+    let mut planes: Vec<Plane> = Vec::new();
+    let mut region: Vec<u32> = Vec::new();
+    let mut queue: VecDeque<u32> = VecDeque::new();
+    for &seed in &seeds {
+        let s = seed as usize;
+        if taken[s] {
+            continue;
+        }
+        let origin = positions[s];
+        let mut normal = features.normal[s].map(f64::from);
+        let mut centre = [0.0; 3];
+        let mut moments = [0.0; 10];
+        let mut next_fit = 10.0;
+        region.clear();
+        queue.clear();
+        refused.clear();
+        let stamp = seed + 1;
+        taken[s] = true;
+        region.push(seed);
+        add_moments(&mut moments, [0.0; 3]);
+        queue.push_back(seed);
+        while let Some(i) = queue.pop_front() {
+            let i = i as usize;
+            let reach = REACH * f64::from(scale.spacing[i]);
+            grid.for_each_within(positions[i], reach, |j, _, _| {
+                let j = j as usize;
+                if !eligible(j) {
+                    return;
+                }
+                if taken[j] {
+                    if scrap[j] && refused_by[j] != stamp {
+                        refused_by[j] = stamp;
+                        refused.push(j as u32);
+                    }
+                    return;
+                }
+                let nj = features.normal[j].map(f64::from);
+                let d = sub(positions[j], origin);
+                let tol = PLANE_SIGMAS * f64::from(scale.noise[j])
+                    + PLANE_SLACK * f64::from(scale.spacing[j]);
+                if dot(nj, normal).abs() < cos_tol || dot(normal, sub(d, centre)).abs() > tol {
+                    if refused_by[j] != stamp {
+                        refused_by[j] = stamp;
+                        refused.push(j as u32);
+                    }
+                    return;
+                }
+                taken[j] = true;
+                region.push(j as u32);
+                add_moments(&mut moments, d);
+                queue.push_back(j as u32);
+            });
+            if moments[0] >= next_fit {
+                if let Some(pca) = pca_from_moments(&moments) {
+                    normal = pca.normal;
+                    centre = pca.centroid;
+                }
+                next_fit = moments[0] * 1.5;
+            }
+        }
+        let plane = face_of(
+            positions, scale, &region, &refused, &taken, &scrap, origin, min_points,
+        );
+        let Some(plane) = plane else {
+            for &i in &region {
+                scrap[i as usize] = true;
+            }
+            continue;
+        };
+        let id = planes.len() as u32;
+        for &i in &region {
+            label[i as usize] = id;
+        }
+        planes.push(plane);
+    }
+    Faces { label, planes }
+}
+
+/// The halves of a face on either side of its centroid, along either in-plane axis, lie on
+/// planes within this many degrees of each other. A curved patch grown within
+/// `NORMAL_TOLERANCE` can scatter about its plane no more than noise does (a tight cylinder's
+/// narrow patch), but its halves tilt apart by about half the normals' spread; a flat face's
+/// halves agree to a fraction of a degree.
+const FOLD_DEGREES: f64 = 2.5;
+/// An axis along which the face is narrower than this many spacings (a strip between two
+/// close edges) is not split: its halves' planes would be set by noise.
+const FOLD_MIN_WIDTH: f64 = 4.0;
+
+/// Whether the face `ids` (plane `plane`) bends: see [`FOLD_DEGREES`].
+fn folds(positions: &[[f64; 3]], ids: &[u32], origin: [f64; 3], plane: &Plane) -> bool {
+    // The face's principal axes in its plane.
+    let mut m = [0.0; 10];
+    for &i in ids {
+        add_moments(&mut m, sub(positions[i as usize], plane.centroid));
+    }
+    let n = m[0];
+    let cov = [
+        [m[4] / n, m[5] / n, m[6] / n],
+        [m[5] / n, m[7] / n, m[8] / n],
+        [m[6] / n, m[8] / n, m[9] / n],
+    ];
+    let (values, vectors) = crate::geometry::sym_eigen(&cov);
+    let (e1, e2) = (vectors[0], vectors[1]);
+    let h = std::f64::consts::FRAC_1_SQRT_2;
+    let diagonal = |s: f64| [0, 1, 2].map(|k| h * (e1[k] + s * e2[k]));
+    // Along both axes, and (unless the face is a strip, whose diagonals mix in the poorly
+    // fixed tilt across it) along the diagonals: a bend in any direction shows in one split.
+    let half_width = |v: f64| (3.0 * v.max(0.0)).sqrt();
+    // A patch too small to be split along its longest axis cannot show that it is flat (the
+    // scraps grown on tightly curved surfaces): no face.
+    if half_width(values[0]) < FOLD_MIN_WIDTH * plane.spacing {
+        return true;
+    }
+    let strip = half_width(values[1]) < FOLD_MIN_WIDTH * plane.spacing;
+    let axes: &[[f64; 3]] = if strip {
+        &[e1, e2]
+    } else {
+        &[e1, e2, diagonal(1.0), diagonal(-1.0)]
+    };
+    for &axis in axes {
+        let mut halves = [[0.0; 10]; 2];
+        let mut spread = 0.0;
+        for &i in ids {
+            let d = sub(positions[i as usize], origin);
+            let along = dot(sub(positions[i as usize], plane.centroid), axis);
+            spread += along * along;
+            add_moments(&mut halves[usize::from(along > 0.0)], d);
+        }
+        // Half-width of a uniform strip: √3 × the RMS extent.
+        let width = (3.0 * spread / ids.len() as f64).sqrt();
+        if width < FOLD_MIN_WIDTH * plane.spacing {
+            continue;
+        }
+        // Each half's slope along the split axis: a bend along it tilts them apart; their
+        // tilt about the axis (poorly fixed on a narrow strip) does not count.
+        let slope = |m: &[f64; 10]| {
+            pca_from_moments(m).map(|p| {
+                let up = dot(p.normal, plane.normal);
+                (-dot(p.normal, axis)).atan2(up.abs()) * up.signum()
+            })
+        };
+        if let (Some(a), Some(b)) = (slope(&halves[0]), slope(&halves[1])) {
+            if (a - b).abs() > FOLD_DEGREES.to_radians() {
+                tracing::trace!(
+                    "fold {:.2} deg, {} points, width {:.1} h",
+                    (a - b).abs().to_degrees(),
+                    ids.len(),
+                    width / plane.spacing
+                );
+                return true;
+            }
+        }
+    }
+    false
+}
+
+/// The plane of a grown region when it is a planar face: large enough, closed (see
+/// [`OPEN_SHARE`]), scattering about its plane no more than noise explains, not folded.
+#[allow(clippy::too_many_arguments)]
+fn face_of(
+    positions: &[[f64; 3]],
+    scale: &LocalScale,
+    region: &[u32],
+    refused: &[u32],
+    taken: &[bool],
+    scrap: &[bool],
+    origin: [f64; 3],
+    min_points: usize,
+) -> Option<Plane> {
+    if region.len() < min_points {
+        return None;
+    }
+    // A face ends at its edges, where the candidates begin; a patch of a curved surface ends
+    // where the surface turns away from its plane, among points that are no candidates.
+    let open = refused
+        .iter()
+        .filter(|&&j| !taken[j as usize] || scrap[j as usize])
+        .count();
+    if open as f64 > OPEN_SHARE * region.len() as f64 {
+        tracing::trace!(
+            "region of {} points refused {open} face points",
+            region.len()
+        );
+        return None;
+    }
+    let plane = fit_plane(positions, scale, region, origin)?;
+    if plane.rms > FLAT_RMS * plane.noise + PLANE_SLACK * plane.spacing
+        || folds(positions, region, origin, &plane)
+    {
+        return None;
+    }
+    Some(plane)
+}
+
+/// The least-squares plane of `ids` (offsets taken from `origin` for precision), with its
+/// RMS and the points' median spacing and noise.
+pub fn fit_plane(
+    positions: &[[f64; 3]],
+    scale: &LocalScale,
+    ids: &[u32],
+    origin: [f64; 3],
+) -> Option<Plane> {
+    let mut m = [0.0; 10];
+    for &i in ids {
+        add_moments(&mut m, sub(positions[i as usize], origin));
+    }
+    let pca = pca_from_moments(&m)?;
+    let centroid = [0, 1, 2].map(|k| origin[k] + pca.centroid[k]);
+    let local = scale.around(ids.iter().copied())?;
+    Some(Plane {
+        normal: pca.normal,
+        offset: dot(pca.normal, centroid),
+        centroid,
+        points: ids.len(),
+        rms: (pca.eigenvalues[0]).sqrt(),
+        spacing: local.spacing,
+        noise: local.noise,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::progress::Progress;
+    use crate::stages::features::{FeatureParams, Scale, features};
+
+    /// A jittered grid on the box [0, a] x [0, b] x [0, c] surface, pitch h.
+    fn box_surface(a: f64, b: f64, c: f64, h: f64) -> Vec<[f64; 3]> {
+        let mut pts = Vec::new();
+        let mut state = 12345u64;
+        let mut jitter = || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((state >> 33) as f64 / (1u64 << 31) as f64 - 0.5) * 0.3 * h
+        };
+        let steps = |l: f64| (l / h).round() as usize;
+        for (u, v, w, map) in [
+            (a, b, 0.0, 0usize),
+            (a, b, c, 0),
+            (a, c, 0.0, 1),
+            (a, c, b, 1),
+            (b, c, 0.0, 2),
+            (b, c, a, 2),
+        ] {
+            for i in 0..=steps(u) {
+                for j in 0..=steps(v) {
+                    let (x, y) = (i as f64 * h + jitter(), j as f64 * h + jitter());
+                    let (x, y) = (x.clamp(0.0, u), y.clamp(0.0, v));
+                    pts.push(match map {
+                        0 => [x, y, w],
+                        1 => [x, w, y],
+                        _ => [w, x, y],
+                    });
+                }
+            }
+        }
+        pts
+    }
+
+    #[test]
+    fn a_box_has_six_planar_faces_and_a_sphere_none() {
+        let h = 1.0;
+        let pts = box_surface(40.0, 30.0, 20.0, h);
+        let scale = Scale {
+            spacing: h,
+            noise: 0.01,
+            radius: 4.0 * h,
+        };
+        let local = LocalScale::uniform(pts.len(), scale);
+        let grid = Grid::new(&pts, scale.radius).unwrap();
+        let f = features(
+            &pts,
+            &grid,
+            &local,
+            &FeatureParams::default(),
+            &Progress::hidden(),
+        );
+        let faces = planar_faces(&pts, &grid, &f, &local);
+        assert_eq!(faces.planes.len(), 6, "{:?}", faces.planes);
+        for p in &faces.planes {
+            // Each plane is one of x, y, z = 0 or the far side.
+            let axis = (0..3)
+                .max_by(|&a, &b| p.normal[a].abs().total_cmp(&p.normal[b].abs()))
+                .unwrap();
+            assert!(p.normal[axis].abs() > 0.9999, "{p:?}");
+            let at = p.centroid[axis];
+            let sides = [0.0, [40.0, 30.0, 20.0][axis]];
+            assert!(sides.iter().any(|s| (at - s).abs() < 1e-3), "{p:?}");
+        }
+
+        // A sphere of radius 15 at the same pitch: no patch of it is flat.
+        let mut sphere = Vec::new();
+        let m = 2000;
+        for k in 0..m * 2 {
+            // Fibonacci sphere, pitch about 1.
+            let y = 1.0 - 2.0 * (k as f64 + 0.5) / (2 * m) as f64;
+            let rr = (1.0 - y * y).sqrt();
+            let t = k as f64 * 2.399_963_229_728_653;
+            sphere.push([15.0 * rr * t.cos(), 15.0 * y, 15.0 * rr * t.sin()]);
+        }
+        let local = LocalScale::uniform(sphere.len(), scale);
+        let grid = Grid::new(&sphere, scale.radius).unwrap();
+        let f = features(
+            &sphere,
+            &grid,
+            &local,
+            &FeatureParams::default(),
+            &Progress::hidden(),
+        );
+        let faces = planar_faces(&sphere, &grid, &f, &local);
+        assert!(faces.planes.is_empty(), "{:?}", faces.planes);
+    }
+}

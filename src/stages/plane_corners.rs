@@ -1,0 +1,645 @@
+//! Corners from planes: where three or more planar faces of the scan meet, their planes'
+//! common point is the corner, however short the edges between them (a small hole, a narrow
+//! step: too short for the edge stage's slabs) and far more precisely than a fit to the
+//! edges' ends, because each plane rests on a whole face of points.
+//!
+//! Inputs: positions, the neighbour `Grid`, the `Features` (candidate and outlier masks), the
+//! `LocalScale`, the planar `Faces`, `EdgeParams` (the widest rounding of a sharp edge).
+//! Output: `FaceCorner`s (position, faces, support).
+//!
+//! Hypotheses come from the edge candidates: each candidate names the faces it sees within
+//! `SEE_REACH` radii, and every triple of them is a possible corner. A triple is kept when
+//! its planes are well apart, their common point lies among the candidates that named it,
+//! each face has points near it, and the scan follows each of the three edges leaving it (a
+//! wide fillet between two faces leaves their planes' intersection line out in the air).
+
+use rayon::prelude::*;
+
+use crate::geometry::{cross, dot, norm, solve3, sub};
+use crate::neighbours::Grid;
+use crate::stages::corners::{CornerFit, EdgeGeometry};
+use crate::stages::edges::{EdgeParams, fillet_limit};
+use crate::stages::faces::{Faces, NO_FACE, Plane};
+use crate::stages::features::{Features, LocalScale, Scale};
+
+/// A corner where three or more planar faces meet: their planes' common point.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FaceCorner {
+    pub position: [f64; 3],
+    /// The faces (ids into `Faces::planes`) that meet here, ascending.
+    pub faces: Vec<u32>,
+    /// Edge candidates near the corner that see the first three faces around them.
+    pub support: usize,
+    /// Median local scale of those candidates.
+    pub spacing: f64,
+    pub noise: f64,
+    pub radius: f64,
+}
+
+/// An edge candidate sees a face when at least this many of the face's points lie within
+/// `SEE_REACH` of its own radius.
+const SEE_POINTS: usize = 3;
+const SEE_REACH: f64 = 2.5;
+/// Two faces of a corner turn against each other by at least this many degrees: the parts
+/// users bring have edges whose faces turn by 20° (an interior angle of 160°); a face split
+/// in two turns by a few degrees at most. (Faceted curved surfaces, whose facets meet at
+/// creases of this size, are no planar faces: see `faces::folds`.)
+const MIN_FACE_ANGLE: f64 = 15.0;
+/// A corner needs this many candidates that see its three faces.
+const MIN_SUPPORT: usize = 3;
+/// The three faces of a corner stand at least this far from one plane: |det(n1, n2, n3)|,
+/// the sine-like measure of how well their intersection is defined (0.17 ≈ sin 10°).
+const MIN_DETERMINANT: f64 = 0.17;
+/// The corner lies within this many radii of its nearest supporting candidate, and each of
+/// its faces has points within `FACE_NEAR` radii of it: planes of faces that do not meet
+/// there intersect somewhere else.
+const ON_CANDIDATES: f64 = 1.5;
+const FACE_NEAR: f64 = 4.0;
+/// Corners closer than this many radii are one (the best supported kept, the faces pooled).
+const SAME_CORNER: f64 = 2.0;
+
+/// The corners where three or more planar faces meet (see [`FaceCorner`]): every triple of
+/// faces seen together from edge candidates, their planes intersected, kept where the point
+/// is among those candidates and near all three faces.
+pub fn face_corners(
+    positions: &[[f64; 3]],
+    grid: &Grid,
+    features: &Features,
+    scale: &LocalScale,
+    faces: &Faces,
+    edges: &EdgeParams,
+) -> Vec<FaceCorner> {
+    if faces.planes.len() < 3 {
+        return Vec::new();
+    }
+    let candidates: Vec<u32> = (0..positions.len() as u32)
+        .filter(|&i| features.candidate[i as usize] && !features.outlier[i as usize])
+        .collect();
+    // (face triple, candidate) for every candidate that sees three faces or more.
+    let mut votes: Vec<([u32; 3], u32)> = candidates
+        .par_iter()
+        .flat_map_iter(|&c| {
+            let i = c as usize;
+            let mut seen: Vec<(u32, usize)> = Vec::new();
+            grid.for_each_within(
+                positions[i],
+                SEE_REACH * f64::from(scale.radius[i]),
+                |j, _, _| {
+                    let l = faces.label[j as usize];
+                    if l == NO_FACE {
+                        return;
+                    }
+                    match seen.iter_mut().find(|s| s.0 == l) {
+                        Some(s) => s.1 += 1,
+                        None => seen.push((l, 1)),
+                    }
+                },
+            );
+            seen.retain(|s| s.1 >= SEE_POINTS);
+            seen.sort_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(&b.0)));
+            seen.truncate(6);
+            let mut ids: Vec<u32> = seen.iter().map(|s| s.0).collect();
+            ids.sort_unstable();
+            let mut out = Vec::new();
+            for a in 0..ids.len() {
+                for b in a + 1..ids.len() {
+                    for d in b + 1..ids.len() {
+                        out.push(([ids[a], ids[b], ids[d]], c));
+                    }
+                }
+            }
+            out
+        })
+        .collect();
+    votes.par_sort_unstable();
+    tracing::debug!(
+        "plane corners: {} face triples named by {} candidates",
+        votes.len(),
+        candidates.len()
+    );
+    // A face split in two is one plane, not two faces of a corner.
+    let cos_min = MIN_FACE_ANGLE.to_radians().cos();
+    let mut found: Vec<FaceCorner> = Vec::new();
+    let mut start = 0;
+    while start < votes.len() {
+        let triple = votes[start].0;
+        let end = start + votes[start..].iter().take_while(|v| v.0 == triple).count();
+        let voters: Vec<u32> = votes[start..end].iter().map(|v| v.1).collect();
+        start = end;
+        if voters.len() < MIN_SUPPORT {
+            continue;
+        }
+        let planes = triple.map(|f| faces.planes[f as usize]);
+        let apart = (0..3)
+            .all(|a| (a + 1..3).all(|b| dot(planes[a].normal, planes[b].normal).abs() < cos_min));
+        if !apart {
+            tracing::trace!(
+                "plane corner {triple:?}: {} voters, not apart",
+                voters.len()
+            );
+            continue;
+        }
+        let det = dot(planes[0].normal, cross(planes[1].normal, planes[2].normal));
+        if det.abs() < MIN_DETERMINANT {
+            continue;
+        }
+        let Some(position) = intersect(&planes) else {
+            continue;
+        };
+        let Some(local) = scale.around(voters.iter().copied()) else {
+            continue;
+        };
+        let r = local.radius;
+        let nearest = voters
+            .iter()
+            .map(|&v| norm(sub(positions[v as usize], position)))
+            .fold(f64::INFINITY, f64::min);
+        if nearest > ON_CANDIDATES * r {
+            tracing::trace!(
+                "plane corner {triple:?} at {position:?}: {} voters, nearest {:.2} r",
+                voters.len(),
+                nearest / r
+            );
+            continue;
+        }
+        let mut near = [false; 3];
+        grid.for_each_within(position, FACE_NEAR * r, |j, _, _| {
+            let l = faces.label[j as usize];
+            for k in 0..3 {
+                near[k] |= l == triple[k];
+            }
+        });
+        if !near.iter().all(|&x| x) {
+            tracing::trace!(
+                "plane corner {triple:?} at {position:?}: {} voters, faces near {near:?}",
+                voters.len()
+            );
+            continue;
+        }
+        if let Some(k) = unfollowed_edge(
+            positions, grid, faces, &planes, &triple, position, &local, edges,
+        ) {
+            tracing::trace!(
+                "face corner {triple:?} at {position:?}: {} voters, the scan leaves the edge of faces {:?}",
+                voters.len(),
+                [triple[(k + 1) % 3], triple[(k + 2) % 3]]
+            );
+            continue;
+        }
+        tracing::trace!(
+            "plane corner {triple:?} at {position:?}: {} voters, kept",
+            voters.len()
+        );
+        found.push(FaceCorner {
+            position,
+            faces: triple.to_vec(),
+            support: voters.len(),
+            spacing: local.spacing,
+            noise: local.noise,
+            radius: r,
+        });
+    }
+    // Best supported first; a corner near one kept already adds its faces to it.
+    found.sort_by(|a, b| b.support.cmp(&a.support).then(a.faces.cmp(&b.faces)));
+    let mut kept: Vec<FaceCorner> = Vec::new();
+    for c in found {
+        let same = kept
+            .iter_mut()
+            .find(|k| norm(sub(k.position, c.position)) < SAME_CORNER * k.radius.max(c.radius));
+        match same {
+            Some(k) => {
+                for f in c.faces {
+                    if !k.faces.contains(&f) {
+                        k.faces.push(f);
+                    }
+                }
+            }
+            None => kept.push(c),
+        }
+    }
+    // Where more than three faces meet (a pyramid's apex), all their planes place the corner.
+    for k in &mut kept {
+        k.faces.sort_unstable();
+        if k.faces.len() > 3 {
+            let planes: Vec<Plane> = k.faces.iter().map(|&f| faces.planes[f as usize]).collect();
+            if let Some(p) = intersect(&planes) {
+                let fits = planes
+                    .iter()
+                    .all(|pl| pl.distance(p).abs() <= SAME_CORNER * k.radius);
+                if fits {
+                    k.position = p;
+                }
+            }
+        }
+    }
+    kept
+}
+
+/// The scan follows a sharp edge, rounded by at most the widest rounding of a sharp edge
+/// (`edges::fillet_limit`), within this many spacings plus three noise sigmas: a rounding of
+/// radius ρ between faces at a dihedral angle θ keeps the scan ρ·(1/sin(θ/2) − 1) off their
+/// planes' intersection line.
+const HUG_SLACK: f64 = 0.5;
+/// Where along each edge from the corner the gap is measured, in radii: it must be small at
+/// every one (nearer, a corner's own blend widens it; farther, a short edge may have ended).
+const HUG_AT: [f64; 2] = [1.0, 1.5];
+
+/// The first of the corner's three edges (by the index of the face *not* on it) along which
+/// the scan stays farther from the two planes' intersection line than a sharp edge's rounding
+/// explains; `None` when the scan follows all three.
+#[allow(clippy::too_many_arguments)]
+fn unfollowed_edge(
+    positions: &[[f64; 3]],
+    grid: &Grid,
+    faces: &Faces,
+    planes: &[Plane; 3],
+    triple: &[u32; 3],
+    corner: [f64; 3],
+    scale: &Scale,
+    edges: &EdgeParams,
+) -> Option<usize> {
+    let r = scale.radius;
+    // side[m][k]: the summed signed distances of face k's points near the corner from plane
+    // m (relative to the corner's): which side of each plane the other faces lie on.
+    let mut side = [[0.0f64; 3]; 3];
+    grid.for_each_within(corner, FACE_NEAR * r, |j, _, _| {
+        let l = faces.label[j as usize];
+        let Some(k) = triple.iter().position(|&t| t == l) else {
+            return;
+        };
+        for (m, plane) in planes.iter().enumerate() {
+            if m != k {
+                side[m][k] += plane.distance(positions[j as usize]) - plane.distance(corner);
+            }
+        }
+    });
+    let rounding = fillet_limit(edges, scale) * scale.spacing;
+    (0..3).find(|&k| {
+        let (ia, ib) = ((k + 1) % 3, (k + 2) % 3);
+        // Each face's normal turned away from the other face: the interior angle θ between
+        // the two half-planes then has cos θ = −n_a · n_b.
+        let na = planes[ia].normal.map(|x| -x * side[ia][ib].signum());
+        let nb = planes[ib].normal.map(|x| -x * side[ib][ia].signum());
+        let mut d = cross(na, nb);
+        let len = norm(d);
+        if len == 0.0 {
+            return true;
+        }
+        d = d.map(|x| x / len);
+        // Along the edge into the part: towards the side of plane k where faces a and b lie.
+        if dot(d, planes[k].normal) * (side[k][ia] + side[k][ib]) < 0.0 {
+            d = d.map(|x| -x);
+        }
+        let cos_theta = (-dot(na, nb)).clamp(-1.0, 1.0);
+        let half = (0.5 * (1.0 - cos_theta)).sqrt().max(1e-3);
+        let gap = rounding * (1.0 / half - 1.0) + HUG_SLACK * scale.spacing + 3.0 * scale.noise;
+        !HUG_AT.iter().all(|&t| {
+            let q = [0, 1, 2].map(|m| corner[m] + d[m] * t * r);
+            let mut hit = false;
+            grid.for_each_within(q, gap, |_, _, _| hit = true);
+            hit
+        })
+    })
+}
+
+/// The least-squares common point of planes (minimising the sum of squared distances), or
+/// `None` when they do not fix one point (fewer than three independent normals). Offsets
+/// are taken from the first plane's centroid for precision.
+pub fn intersect(planes: &[Plane]) -> Option<[f64; 3]> {
+    let origin = planes.first()?.centroid;
+    let mut a = [[0.0; 3]; 3];
+    let mut b = [0.0; 3];
+    for p in planes {
+        let n = p.normal;
+        let d = dot(n, sub(p.centroid, origin));
+        for r in 0..3 {
+            for c in 0..3 {
+                a[r][c] += n[r] * n[c];
+            }
+            b[r] += n[r] * d;
+        }
+    }
+    let x = solve3(&a, &b)?;
+    Some([0, 1, 2].map(|k| origin[k] + x[k]))
+}
+
+/// A straight sharp edge between two plane corners: where two planar faces meet, from one
+/// corner of both to another.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FaceEdge {
+    /// Indices into the plane corners.
+    pub corners: [usize; 2],
+    pub faces: [u32; 2],
+    pub start: [f64; 3],
+    pub end: [f64; 3],
+    /// Edge candidates within one radius of the edge.
+    pub points: usize,
+    /// The two faces' directions away from the edge, perpendicular to it (unit; the face
+    /// traces of a slab across it), towards each face's points.
+    pub traces: [[f64; 3]; 2],
+    /// The scale of the corners at its ends (the smaller radius).
+    pub scale: Scale,
+}
+
+/// The segment between two corners lies along their two faces' intersection line within
+/// this sine of an angle (3°).
+const ALONG_LINE: f64 = 0.05;
+
+/// The edges between plane corners: two corners sharing two faces, the segment between them
+/// along those faces' intersection, and edge candidates along all of it (every radius of its
+/// length has one within a radius). Corners of one pair of faces are taken in order along
+/// their line, so an edge never jumps over a corner between.
+pub fn face_edges(
+    positions: &[[f64; 3]],
+    grid: &Grid,
+    features: &Features,
+    faces: &Faces,
+    corners: &[FaceCorner],
+) -> Vec<FaceEdge> {
+    // Every pair of faces with the corners on it.
+    let mut on_pair: Vec<([u32; 2], usize)> = Vec::new();
+    for (c, corner) in corners.iter().enumerate() {
+        for (i, &a) in corner.faces.iter().enumerate() {
+            for &b in &corner.faces[i + 1..] {
+                on_pair.push(([a, b], c));
+            }
+        }
+    }
+    on_pair.sort_unstable();
+    let mut out = Vec::new();
+    let mut start = 0;
+    while start < on_pair.len() {
+        let pair = on_pair[start].0;
+        let end = start + on_pair[start..].iter().take_while(|x| x.0 == pair).count();
+        let ids: Vec<usize> = on_pair[start..end].iter().map(|x| x.1).collect();
+        start = end;
+        if ids.len() < 2 {
+            continue;
+        }
+        let (pa, pb) = (
+            faces.planes[pair[0] as usize],
+            faces.planes[pair[1] as usize],
+        );
+        let mut d = cross(pa.normal, pb.normal);
+        let len = norm(d);
+        if len < 1e-9 {
+            continue;
+        }
+        d = d.map(|x| x / len);
+        let mut along: Vec<(f64, usize)> = ids
+            .iter()
+            .map(|&c| (dot(d, corners[c].position), c))
+            .collect();
+        along.sort_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
+        for w in along.windows(2) {
+            let (c0, c1) = (w[0].1, w[1].1);
+            let (p0, p1) = (corners[c0].position, corners[c1].position);
+            let seg = sub(p1, p0);
+            let l = norm(seg);
+            if l == 0.0 || norm(cross(seg.map(|x| x / l), d)) > ALONG_LINE {
+                continue;
+            }
+            let r = corners[c0].radius.min(corners[c1].radius);
+            let steps = (l / r).ceil().max(1.0) as usize;
+            let mut candidates = 0usize;
+            let covered = (0..=steps).all(|s| {
+                let t = s as f64 / steps as f64;
+                let q = [0, 1, 2].map(|m| p0[m] + seg[m] * t);
+                let mut n = 0;
+                grid.for_each_within(q, r, |j, _, _| {
+                    n += usize::from(features.candidate[j as usize]);
+                });
+                candidates += n;
+                n > 0
+            });
+            if !covered {
+                continue;
+            }
+            let mid = [0, 1, 2].map(|m| 0.5 * (p0[m] + p1[m]));
+            let Some(traces) = traces(positions, grid, faces, pair, d, mid, FACE_NEAR * r) else {
+                continue;
+            };
+            let near = if corners[c0].radius <= corners[c1].radius {
+                &corners[c0]
+            } else {
+                &corners[c1]
+            };
+            out.push(FaceEdge {
+                corners: [c0, c1],
+                faces: pair,
+                start: p0,
+                end: p1,
+                points: candidates,
+                traces,
+                scale: Scale {
+                    spacing: near.spacing,
+                    noise: near.noise,
+                    radius: near.radius,
+                },
+            });
+        }
+    }
+    out
+}
+
+/// The directions of faces `pair` away from their intersection line (direction `d`) at
+/// `at`: in each face's plane, perpendicular to `d`, towards the face's points within
+/// `reach` (`None` when a face has none there).
+fn traces(
+    positions: &[[f64; 3]],
+    grid: &Grid,
+    faces: &Faces,
+    pair: [u32; 2],
+    d: [f64; 3],
+    at: [f64; 3],
+    reach: f64,
+) -> Option<[[f64; 3]; 2]> {
+    let mut towards = [[0.0; 3]; 2];
+    let mut seen = [false; 2];
+    grid.for_each_within(at, reach, |j, _, _| {
+        let l = faces.label[j as usize];
+        for k in 0..2 {
+            if l == pair[k] {
+                seen[k] = true;
+                let off = sub(positions[j as usize], at);
+                towards[k] = [0, 1, 2].map(|m| towards[k][m] + off[m]);
+            }
+        }
+    });
+    if !seen[0] || !seen[1] {
+        return None;
+    }
+    let mut out = [[0.0; 3]; 2];
+    for k in 0..2 {
+        let t = cross(d, faces.planes[pair[k] as usize].normal);
+        let len = norm(t);
+        if len == 0.0 {
+            return None;
+        }
+        let sign = if dot(t, towards[k]) < 0.0 { -1.0 } else { 1.0 };
+        out[k] = t.map(|x| sign * x / len);
+    }
+    Some(out)
+}
+
+/// Whether segment c–d lies along segment a–b: both its ends within `tolerance` of a–b's line
+/// and the two overlapping by at least half of the shorter.
+pub fn overlaps(a: [f64; 3], b: [f64; 3], c: [f64; 3], d: [f64; 3], tolerance: f64) -> bool {
+    let ab = sub(b, a);
+    let l = norm(ab);
+    if l == 0.0 {
+        return false;
+    }
+    let u = ab.map(|x| x / l);
+    let off = |p: [f64; 3]| {
+        let t = dot(sub(p, a), u);
+        (t, norm(sub(sub(p, a), u.map(|x| x * t))))
+    };
+    let ((tc, dc), (td, dd)) = (off(c), off(d));
+    if dc > tolerance || dd > tolerance {
+        return false;
+    }
+    let (lo, hi) = (tc.min(td), tc.max(td));
+    let overlap = hi.min(l) - lo.max(0.0);
+    overlap >= 0.5 * (hi - lo).min(l)
+}
+
+/// A fitted corner this close to a plane corner, in the plane corner's radii, is the same
+/// corner.
+const SAME_AS_FITTED: f64 = 2.0;
+
+/// Puts the plane corners among the fitted ones: a fitted corner within `SAME_AS_FITTED`
+/// radii takes the plane corner's position (the planes rest on whole faces; the fit on its
+/// edges' ends); a plane corner with none near is added, without fit errors. Returns each
+/// plane corner's index in `corners`.
+pub fn place_corners(found: &[FaceCorner], corners: &mut Vec<CornerFit>) -> Vec<usize> {
+    let mut index = Vec::with_capacity(found.len());
+    for fc in found {
+        let near = corners
+            .iter()
+            .enumerate()
+            .map(|(i, c)| (norm(sub(c.position, fc.position)), i))
+            .filter(|(d, _)| *d < SAME_AS_FITTED * fc.radius)
+            .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        match near {
+            Some((_, i)) => {
+                corners[i].position = fc.position;
+                index.push(i);
+            }
+            None => {
+                index.push(corners.len());
+                corners.push(CornerFit {
+                    vertex: usize::MAX,
+                    position: fc.position,
+                    scheme1: fc.position,
+                    exact: fc.position,
+                    errors: [f64::NAN; 3],
+                    edges: Vec::new(),
+                });
+            }
+        }
+    }
+    index
+}
+
+/// Places the plane edges: a fitted straight edge along one (see [`overlaps`], within 1.5
+/// spacings) takes its exact line from corner to corner; the others are returned as edges of
+/// their own, their `corners` turned into indices of the reported corners (`corner_index`,
+/// from [`place_corners`]).
+pub fn place_edges(
+    edges: &[FaceEdge],
+    found: &[FaceCorner],
+    corner_index: &[usize],
+    geometry: &mut [Option<EdgeGeometry>],
+) -> Vec<FaceEdge> {
+    let mut own = Vec::new();
+    for fe in edges {
+        let ends = fe.corners.map(|c| corner_index[c]);
+        let tolerance = 1.5 * found[fe.corners[0]].spacing;
+        let same = geometry.iter_mut().flatten().find(|g| {
+            g.polyline.len() == 2
+                && overlaps(fe.start, fe.end, g.polyline[0], g.polyline[1], tolerance)
+        });
+        match same {
+            Some(g) => {
+                if dot(sub(g.polyline[1], g.polyline[0]), sub(fe.end, fe.start)) >= 0.0 {
+                    g.polyline = vec![fe.start, fe.end];
+                    g.corners = [Some(ends[0]), Some(ends[1])];
+                } else {
+                    g.polyline = vec![fe.end, fe.start];
+                    g.corners = [Some(ends[1]), Some(ends[0])];
+                }
+            }
+            None => own.push(FaceEdge {
+                corners: ends,
+                ..fe.clone()
+            }),
+        }
+    }
+    own
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn plane(normal: [f64; 3], point: [f64; 3]) -> Plane {
+        let l = norm(normal);
+        let n = normal.map(|x| x / l);
+        Plane {
+            normal: n,
+            offset: dot(n, point),
+            centroid: point,
+            points: 100,
+            rms: 0.0,
+            spacing: 1.0,
+            noise: 0.0,
+        }
+    }
+
+    #[test]
+    fn three_planes_meet_in_one_point_and_parallel_ones_nowhere() {
+        let p = [
+            plane([1.0, 0.0, 0.0], [2.0, 7.0, -3.0]),
+            plane([0.0, 1.0, 0.0], [5.0, -1.0, 4.0]),
+            plane([1.0, 1.0, 1.0], [2.0, -1.0, 9.0]),
+        ];
+        let x = intersect(&p).unwrap();
+        for pl in &p {
+            assert!(pl.distance(x).abs() < 1e-12, "{x:?}");
+        }
+        assert!(norm(sub(x, [2.0, -1.0, 9.0])) < 1e-12, "{x:?}");
+        // Two planes, or three sharing a line, fix no point.
+        assert!(intersect(&p[..2]).is_none());
+        let pencil = [
+            plane([1.0, 0.0, 0.0], [0.0; 3]),
+            plane([0.0, 1.0, 0.0], [0.0; 3]),
+            plane([1.0, 1.0, 0.0], [0.0; 3]),
+        ];
+        assert!(intersect(&pencil).is_none());
+        // Four planes through one point (a pyramid's apex): the same point.
+        let apex = [3.0, 1.0, 2.0];
+        let four = [
+            [1.0, 0.0, 1.0],
+            [-1.0, 0.0, 1.0],
+            [0.0, 1.0, 1.0],
+            [0.0, -1.0, 1.0],
+        ]
+        .map(|n| plane(n, apex));
+        assert!(norm(sub(intersect(&four).unwrap(), apex)) < 1e-12);
+    }
+
+    #[test]
+    fn segments_overlap_along_one_line_only() {
+        let (a, b) = ([0.0, 0.0, 0.0], [10.0, 0.0, 0.0]);
+        assert!(overlaps(a, b, [2.0, 0.1, 0.0], [9.0, -0.1, 0.0], 0.5));
+        // Reversed, and longer than a–b but covering it.
+        assert!(overlaps(a, b, [12.0, 0.0, 0.0], [-1.0, 0.0, 0.0], 0.5));
+        // Off the line, beside it, or touching only at an end.
+        assert!(!overlaps(a, b, [2.0, 1.0, 0.0], [9.0, 1.0, 0.0], 0.5));
+        assert!(!overlaps(a, b, [11.0, 0.0, 0.0], [20.0, 0.0, 0.0], 0.5));
+        assert!(!overlaps(a, b, [9.0, 0.0, 0.0], [20.0, 0.0, 0.0], 0.5));
+        // Degenerate a–b.
+        assert!(!overlaps(a, a, a, b, 0.5));
+    }
+}
