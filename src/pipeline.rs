@@ -285,6 +285,7 @@ pub fn process(cloud: Cloud, settings: &Settings, clock: &mut impl LapClock) -> 
     let mut geometry = corners::edge_geometry(&segments, &fits, &corner_list, &corner_of_vertex);
     let new_edges =
         plane_corners::place_edges(&plane_edges, &plane_found, &corner_of_plane, &mut geometry);
+    clock.lap("plane corners");
     // Reported edge ids: the fitted runs in run order.
     let mut edge_of_run: Vec<Option<u32>> = vec![None; fits.len()];
     let mut next = 0u32;

@@ -45,6 +45,8 @@ const SEE_REACH: f64 = 2.5;
 /// in two turns by a few degrees at most. (Faceted curved surfaces, whose facets meet at
 /// creases of this size, are no planar faces: see `faces::folds`.)
 const MIN_FACE_ANGLE: f64 = 15.0;
+/// One edge candidate in this many names the faces it sees (see [`face_corners`]).
+const VOTE_STRIDE: usize = 2;
 /// A corner needs this many candidates that see its three faces.
 const MIN_SUPPORT: usize = 3;
 /// The three faces of a corner stand at least this far from one plane: |det(n1, n2, n3)|,
@@ -53,7 +55,7 @@ const MIN_DETERMINANT: f64 = 0.17;
 /// The corner lies within this many radii of its nearest supporting candidate, and each of
 /// its faces has points within `FACE_NEAR` radii of it: planes of faces that do not meet
 /// there intersect somewhere else.
-const ON_CANDIDATES: f64 = 1.5;
+const ON_CANDIDATES: f64 = 2.5;
 const FACE_NEAR: f64 = 4.0;
 /// Corners closer than this many radii are one (the best supported kept, the faces pooled).
 const SAME_CORNER: f64 = 2.0;
@@ -72,8 +74,10 @@ pub fn face_corners(
     if faces.planes.len() < 3 {
         return Vec::new();
     }
+    // Every `VOTE_STRIDE`-th candidate names faces: a corner has dozens within its reach.
     let candidates: Vec<u32> = (0..positions.len() as u32)
         .filter(|&i| features.candidate[i as usize] && !features.outlier[i as usize])
+        .step_by(VOTE_STRIDE)
         .collect();
     // (face triple, candidate) for every candidate that sees three faces or more.
     let mut votes: Vec<([u32; 3], u32)> = candidates
