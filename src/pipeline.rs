@@ -304,6 +304,31 @@ pub fn process(cloud: Cloud, settings: &Settings, clock: &mut impl LapClock) -> 
         &edge_of_run,
         &settings.rectify,
     );
+    // Edges placed by planes are reported after the fitted ones.
+    let plane_specs: Vec<rectify::PlaneEdge> = new_edges
+        .iter()
+        .zip(next..)
+        .map(|(fe, id)| rectify::PlaneEdge {
+            ends: [fe.start, fe.end],
+            traces: fe.traces,
+            planes: fe.faces.map(|f| {
+                let p = &planar.planes[f as usize];
+                (p.centroid, p.normal)
+            }),
+            corners: fe.corners,
+            scale: fe.scale,
+            id,
+        })
+        .collect();
+    let mut rect = rect;
+    rectify::rectify_plane_edges(
+        &mut rect,
+        &cloud.positions,
+        &grid,
+        &features.candidate,
+        &plane_specs,
+        &settings.rectify,
+    );
     clock.lap("rectify");
     let convexity = convexity::convexity(&surface, &fits, &settings.input.sensors);
     clock.lap("convexity");

@@ -314,7 +314,7 @@ fn near_candidates(
     }
     let k = (radius.len() - 1) * 9 / 10;
     let cell = NEAR_CANDIDATES * f64::from(*radius.select_nth_unstable_by(k, f32::total_cmp).1);
-    if !(cell > 0.0) {
+    if cell.is_nan() || cell <= 0.0 {
         return None;
     }
     let (mut lo, mut hi) = (positions[0], positions[0]);

@@ -17,6 +17,7 @@ use crate::geometry::{add, cross, dot, norm, sub};
 use crate::neighbours::Grid;
 use crate::stages::corners::{CornerFit, EdgeGeometry};
 use crate::stages::edges::{EdgeFit, EdgeResult, mean_faces};
+use crate::stages::features::Scale;
 
 /// Settings of the rectify stage (validated by `config`).
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
@@ -188,6 +189,158 @@ pub fn rectify(
         }
     }
     out
+}
+
+/// A straight edge placed by two planar faces (`stages::plane_corners`), which has no slabs:
+/// its ends, its faces' traces (unit, perpendicular to it, away from it), the scale of the
+/// surface there and its reported id.
+#[derive(Debug, Clone, Copy)]
+pub struct PlaneEdge {
+    pub ends: [[f64; 3]; 2],
+    pub traces: [[f64; 3]; 2],
+    /// The two faces' planes (a point on each, its unit normal).
+    pub planes: [([f64; 3], [f64; 3]); 2],
+    /// The reported corners at its ends.
+    pub corners: [usize; 2],
+    pub scale: Scale,
+    pub id: u32,
+}
+
+/// A point lies off its faces when farther than this many noise sigmas (plus a twentieth of
+/// a spacing) from the nearer face trace.
+const OFF_FACE_SIGMAS: f64 = 3.0;
+/// The zone of a plane edge, measured in bins this many spacings wide along the faces, ends
+/// at the first bin where fewer than `ZONE_OFF_SHARE` of the candidates lie off the faces.
+const ZONE_BIN: f64 = 0.5;
+const ZONE_OFF_SHARE: f64 = 0.5;
+
+/// Rectifies along edges placed by planes: the edge candidates within two radii of each,
+/// but not within a radius of its ends (where its corners' third faces come in), move onto
+/// the nearer face trace as along a fitted edge when they lie within its abnormal zone plus
+/// the margin of a fitted edge. The zone is measured from the candidates themselves (see
+/// `ZONE_BIN`). Points moved already keep their place. Then, around the corners at their
+/// ends, candidates as close to one of the corner's plane edges as its zone reaches move onto
+/// the nearest of the corner's face planes, as around a fitted corner.
+pub fn rectify_plane_edges(
+    out: &mut Rectified,
+    positions: &[[f64; 3]],
+    grid: &Grid,
+    candidate: &[bool],
+    edges: &[PlaneEdge],
+    params: &RectifyParams,
+) {
+    let mut zones: Vec<Option<f64>> = vec![None; edges.len()];
+    for (k, e) in edges.iter().enumerate() {
+        let seg = sub(e.ends[1], e.ends[0]);
+        let length = norm(seg);
+        let sc = e.scale;
+        if length <= 2.0 * sc.radius || sc.spacing <= 0.0 {
+            continue;
+        }
+        let d = seg.map(|x| x / length);
+        // (id, along the faces, target on the traces, distance to it)
+        let mut near: Vec<(u32, f64, [f64; 3], f64)> = Vec::new();
+        grid.for_each_near_segment(e.ends[0], e.ends[1], 2.0 * sc.radius, |i| {
+            let iu = i as usize;
+            if !candidate[iu] || out.moved[iu] {
+                return;
+            }
+            let p = positions[iu];
+            let t = dot(sub(p, e.ends[0]), d);
+            if !(sc.radius..=length - sc.radius).contains(&t) {
+                return;
+            }
+            let c = add(e.ends[0], d.map(|x| x * t));
+            let q = onto_traces(p, c, d, &e.traces);
+            near.push((i, along_face(p, c, d, &e.traces), q, norm(sub(q, p))));
+        });
+        near.sort_unstable_by_key(|x| x.0);
+        let off_limit = OFF_FACE_SIGMAS * sc.noise + 0.05 * sc.spacing;
+        let bins = ((2.0 * sc.radius) / (ZONE_BIN * sc.spacing)).ceil() as usize + 1;
+        let mut count = vec![[0usize; 2]; bins];
+        for x in &near {
+            let b = ((x.1 / (ZONE_BIN * sc.spacing)) as usize).min(bins - 1);
+            count[b][0] += 1;
+            count[b][1] += usize::from(x.3 > off_limit);
+        }
+        let Some(end) = count
+            .iter()
+            .position(|c| (c[1] as f64) < ZONE_OFF_SHARE * c[0] as f64)
+        else {
+            continue;
+        };
+        if end == 0 {
+            continue;
+        }
+        let zone = end as f64 * ZONE_BIN * sc.spacing + params.zone_margin * sc.spacing + sc.noise;
+        zones[k] = Some(zone);
+        let max_move = params.max_move * sc.radius;
+        for (i, along, q, moved) in near {
+            if along > zone {
+                continue;
+            }
+            let i = i as usize;
+            out.label[i] = e.id;
+            if params.enabled && moved <= max_move {
+                out.positions[i] = q;
+                out.moved[i] = true;
+            }
+        }
+    }
+    // Around each corner: its plane edges (with a zone), and their planes.
+    let mut at_corner: Vec<(usize, usize)> = edges
+        .iter()
+        .enumerate()
+        .filter(|(k, _)| zones[*k].is_some())
+        .flat_map(|(k, e)| e.corners.map(|c| (c, k)))
+        .collect();
+    at_corner.sort_unstable();
+    for group in at_corner.chunk_by(|a, b| a.0 == b.0) {
+        let incident: Vec<usize> = group.iter().map(|x| x.1).collect();
+        let planes: Vec<([f64; 3], [f64; 3])> =
+            incident.iter().flat_map(|&k| edges[k].planes).collect();
+        let first = &edges[incident[0]];
+        let corner = if group[0].0 == first.corners[0] {
+            first.ends[0]
+        } else {
+            first.ends[1]
+        };
+        let widest = incident
+            .iter()
+            .map(|&k| edges[k].scale.radius)
+            .fold(0.0, f64::max);
+        let reach = incident
+            .iter()
+            .filter_map(|&k| zones[k])
+            .fold(0.0, f64::max);
+        let max_move = params.max_move * widest;
+        grid.for_each_near_segment(corner, corner, 1.5 * widest + reach, |i| {
+            let iu = i as usize;
+            if !candidate[iu] || out.moved[iu] {
+                return;
+            }
+            let p = positions[iu];
+            let on = incident.iter().find(|&&k| {
+                let e = &edges[k];
+                let (dist, _) = crate::geometry::point_segment(p, e.ends[0], e.ends[1]);
+                zones[k].is_some_and(|z| dist <= z)
+            });
+            let Some(&k) = on else { return };
+            out.label[iu] = edges[k].id;
+            if !params.enabled {
+                return;
+            }
+            let (dist, n) = planes
+                .iter()
+                .map(|(o, n)| (dot(sub(p, *o), *n), *n))
+                .min_by(|a, b| a.0.abs().total_cmp(&b.0.abs()))
+                .unwrap_or((0.0, [0.0; 3]));
+            if dist.abs() <= max_move {
+                out.positions[iu] = sub(p, n.map(|x| x * dist));
+                out.moved[iu] = true;
+            }
+        });
+    }
 }
 
 /// Points within `r` of `q` (any r), by id.
