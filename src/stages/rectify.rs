@@ -177,15 +177,7 @@ pub fn rectify(
             if !params.enabled {
                 continue;
             }
-            let (dist, n) = planes
-                .iter()
-                .map(|(o, n)| (dot(sub(p, *o), *n), *n))
-                .min_by(|a, b| a.0.abs().total_cmp(&b.0.abs()))
-                .unwrap_or((0.0, [0.0; 3]));
-            if dist.abs() <= max_move {
-                out.positions[i] = sub(p, n.map(|x| x * dist));
-                out.moved[i] = true;
-            }
+            onto_nearest_plane(&mut out, i, p, &planes, max_move);
         }
     }
     out
@@ -330,16 +322,30 @@ pub fn rectify_plane_edges(
             if !params.enabled {
                 return;
             }
-            let (dist, n) = planes
-                .iter()
-                .map(|(o, n)| (dot(sub(p, *o), *n), *n))
-                .min_by(|a, b| a.0.abs().total_cmp(&b.0.abs()))
-                .unwrap_or((0.0, [0.0; 3]));
-            if dist.abs() <= max_move {
-                out.positions[iu] = sub(p, n.map(|x| x * dist));
-                out.moved[iu] = true;
-            }
+            onto_nearest_plane(out, iu, p, &planes, max_move);
         });
+    }
+}
+
+/// Moves point `i` (at `p`) onto the nearest of a corner's face `planes` (a point on each,
+/// its unit normal), unless that is farther than `max_move`.
+fn onto_nearest_plane(
+    out: &mut Rectified,
+    i: usize,
+    p: [f64; 3],
+    planes: &[([f64; 3], [f64; 3])],
+    max_move: f64,
+) {
+    let Some((dist, n)) = planes
+        .iter()
+        .map(|(o, n)| (dot(sub(p, *o), *n), *n))
+        .min_by(|a, b| a.0.abs().total_cmp(&b.0.abs()))
+    else {
+        return;
+    };
+    if dist.abs() <= max_move {
+        out.positions[i] = sub(p, n.map(|x| x * dist));
+        out.moved[i] = true;
     }
 }
 
