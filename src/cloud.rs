@@ -126,16 +126,7 @@ impl Cloud {
 
     /// Axis-aligned bounding box `(min, max)`; `None` for an empty cloud.
     pub fn bbox(&self) -> Option<([f64; 3], [f64; 3])> {
-        let first = *self.positions.first()?;
-        let mut lo = first;
-        let mut hi = first;
-        for p in &self.positions {
-            for k in 0..3 {
-                lo[k] = lo[k].min(p[k]);
-                hi[k] = hi[k].max(p[k]);
-            }
-        }
-        Some((lo, hi))
+        (!self.positions.is_empty()).then(|| crate::geometry::bounds(&self.positions))
     }
 
     /// The centre of the bounding box: the origin for local (f32-safe) coordinates.

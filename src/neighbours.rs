@@ -447,7 +447,7 @@ impl KdTree {
                 got: 0,
             });
         }
-        let (lo, hi) = bounds(positions);
+        let (lo, hi) = crate::geometry::bounds(positions);
         if !(0..3).all(|k| lo[k].is_finite() && hi[k].is_finite()) {
             return Err(Error::Degenerate {
                 what: "k-d tree",
@@ -480,18 +480,6 @@ impl KdTree {
             .map(|r| (r.item, f64::from(r.distance).sqrt()))
             .collect()
     }
-}
-
-fn bounds(positions: &[[f64; 3]]) -> ([f64; 3], [f64; 3]) {
-    let mut lo = [f64::INFINITY; 3];
-    let mut hi = [f64::NEG_INFINITY; 3];
-    for p in positions {
-        for k in 0..3 {
-            lo[k] = lo[k].min(p[k]);
-            hi[k] = hi[k].max(p[k]);
-        }
-    }
-    (lo, hi)
 }
 
 /// k nearest neighbours of every point (itself excluded), in parallel. Ties at equal distance

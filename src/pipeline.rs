@@ -330,20 +330,14 @@ pub fn process(cloud: Cloud, settings: &Settings, clock: &mut impl LapClock) -> 
         &settings.rectify,
     );
     clock.lap("rectify");
-    let convexity = convexity::convexity(&surface, &fits, &settings.input.sensors);
+    let (convexity, plane_convexity) =
+        convexity::convexity(&surface, &fits, &new_edges, &settings.input.sensors);
     clock.lap("convexity");
     let (mut edges, mut corners) =
         describe(&fits, &geometry, &corner_list, &edge_of_run, &convexity);
-    // Plane edges after the fitted ones, their side of the material voted like theirs.
-    for fe in &new_edges {
-        let side = convexity::segment_convexity(
-            &surface,
-            [fe.start, fe.end],
-            fe.traces,
-            fe.scale,
-            &settings.input.sensors,
-        );
-        edges.push(outcome::plane_edge(edges.len(), fe, &side));
+    // Plane edges after the fitted ones.
+    for (fe, side) in new_edges.iter().zip(&plane_convexity) {
+        edges.push(outcome::plane_edge(edges.len(), fe, side));
     }
     outcome::link_corners(&edges, &mut corners);
     Ok(Outcome {

@@ -128,6 +128,20 @@ pub fn mat_vec(m: &[V3; 3], v: impl Borrow<V3>) -> V3 {
     [dot(m[0], v), dot(m[1], v), dot(m[2], v)]
 }
 
+/// The axis-aligned bounding box (lower, upper corner) of `points`; `(+∞, −∞)` for none. NaN
+/// coordinates are passed over (`f64::min`/`max` keep the other operand).
+pub fn bounds(points: &[V3]) -> (V3, V3) {
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for p in points {
+        for k in 0..3 {
+            lo[k] = lo[k].min(p[k]);
+            hi[k] = hi[k].max(p[k]);
+        }
+    }
+    (lo, hi)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

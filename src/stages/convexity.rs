@@ -26,9 +26,10 @@
 use rayon::prelude::*;
 use serde::Serialize;
 
-use crate::geometry::{add, cross, dot, norm, scale, sub, unit};
+use crate::geometry::{add, axpy, cross, dot, norm, reject, scale, sub, unit};
 use crate::stages::edges::{EdgeFit, EdgeResult, Surface};
 use crate::stages::features::Scale;
+use crate::stages::plane_corners::FaceEdge;
 
 /// Slabs per edge whose corners send rays (evenly spread along the edge).
 const SLABS: usize = 5;
@@ -95,29 +96,37 @@ impl Convexity {
     }
 }
 
-/// The side of the material of every fitted edge (see the module comment); `sensors` may be
-/// empty.
-pub fn convexity(surface: &Surface, fits: &[EdgeResult], sensors: &[[f64; 3]]) -> Vec<Convexity> {
+/// The side of the material of every fitted edge and of every edge placed by planes (see the
+/// module comment); `sensors` may be empty.
+pub fn convexity(
+    surface: &Surface,
+    fits: &[EdgeResult],
+    plane_edges: &[FaceEdge],
+    sensors: &[[f64; 3]],
+) -> (Vec<Convexity>, Vec<Convexity>) {
     let Some(bounds) = bounds(surface.positions) else {
-        return vec![Convexity::default(); fits.len()];
+        return (
+            vec![Convexity::default(); fits.len()],
+            vec![Convexity::default(); plane_edges.len()],
+        );
     };
     // Each edge on its own: the result does not depend on the thread count.
-    fits.par_iter()
+    let fitted = fits
+        .par_iter()
         .map(|f| match f {
             Ok(e) => edge_convexity(surface, e, sensors, bounds),
             Err(_) => Convexity::default(),
         })
-        .collect()
+        .collect();
+    let planar = plane_edges
+        .par_iter()
+        .map(|e| segment_convexity(surface, e, sensors, bounds))
+        .collect();
+    (fitted, planar)
 }
 
 fn bounds(p: &[[f64; 3]]) -> Option<([f64; 3], [f64; 3])> {
-    let first = *p.first()?;
-    Some(p.iter().fold((first, first), |(lo, hi), q| {
-        (
-            [0, 1, 2].map(|k| lo[k].min(q[k])),
-            [0, 1, 2].map(|k| hi[k].max(q[k])),
-        )
-    }))
+    (!p.is_empty()).then(|| crate::geometry::bounds(p))
 }
 
 /// The parameter where the ray `o + t d` leaves the box `b` (0 when it starts outside).
@@ -149,7 +158,7 @@ fn wedge(faces: [[f64; 3]; 2]) -> Option<Wedge> {
     let half = 0.5 * dot(faces[0], faces[1]).clamp(-1.0, 1.0).acos();
     // Each face's normal in the profile plane, towards the other face.
     let inner_normals = [(faces[0], faces[1]), (faces[1], faces[0])]
-        .map(|(f, g)| unit(sub(g, scale(f, dot(f, g)))).unwrap_or(b));
+        .map(|(f, g)| unit(reject(g, f)).unwrap_or(b));
     Some(Wedge {
         b,
         w,
@@ -177,29 +186,22 @@ fn edge_convexity(
     sample_convexity(surface, &samples, &e.scale, e.zone, sensors, bounds)
 }
 
-/// The side of the material of a straight edge from `ends[0]` to `ends[1]` whose faces leave
-/// it along `traces` (an edge placed by two planar faces, `stages::plane_corners`), voted at
-/// `SLABS` points spread along it as for a fitted edge.
-pub fn segment_convexity(
+/// The side of the material of a straight edge placed by two planar faces
+/// (`stages::plane_corners`), voted at `SLABS` points spread along it as for a fitted edge.
+fn segment_convexity(
     surface: &Surface,
-    ends: [[f64; 3]; 2],
-    traces: [[f64; 3]; 2],
-    scale: Scale,
+    e: &FaceEdge,
     sensors: &[[f64; 3]],
+    bounds: ([f64; 3], [f64; 3]),
 ) -> Convexity {
-    let Some(bounds) = bounds(surface.positions) else {
-        return Convexity::default();
-    };
+    let along = sub(e.end, e.start);
     let samples: Vec<([f64; 3], [[f64; 3]; 2])> = (0..SLABS)
         .map(|i| {
             let t = (2 * i + 1) as f64 / (2 * SLABS) as f64;
-            (
-                [0, 1, 2].map(|k| ends[0][k] + t * (ends[1][k] - ends[0][k])),
-                traces,
-            )
+            (axpy(e.start, t, along), e.traces)
         })
         .collect();
-    sample_convexity(surface, &samples, &scale, 0.0, sensors, bounds)
+    sample_convexity(surface, &samples, &e.scale, 0.0, sensors, bounds)
 }
 
 /// Votes from points on an edge (each with its two face traces): `sc` is the surface's scale

@@ -317,13 +317,7 @@ fn near_candidates(
     if cell.is_nan() || cell <= 0.0 {
         return None;
     }
-    let (mut lo, mut hi) = (positions[0], positions[0]);
-    for p in positions {
-        for k in 0..3 {
-            lo[k] = lo[k].min(p[k]);
-            hi[k] = hi[k].max(p[k]);
-        }
-    }
+    let (lo, hi) = crate::geometry::bounds(positions);
     let dims = [0, 1, 2].map(|k| ((hi[k] - lo[k]) / cell).floor() + 1.0);
     if dims.iter().product::<f64>() > MAX_MASK_CELLS {
         return None;
