@@ -295,7 +295,7 @@ pub fn process(cloud: Cloud, settings: &Settings, clock: &mut impl LapClock) -> 
             next += 1;
         }
     }
-    let rect = rectify::rectify(
+    let mut rect = rectify::rectify(
         &cloud.positions,
         &grid,
         &fits,
@@ -305,28 +305,13 @@ pub fn process(cloud: Cloud, settings: &Settings, clock: &mut impl LapClock) -> 
         &settings.rectify,
     );
     // Edges placed by planes are reported after the fitted ones.
-    let plane_specs: Vec<rectify::PlaneEdge> = new_edges
-        .iter()
-        .zip(next..)
-        .map(|(fe, id)| rectify::PlaneEdge {
-            ends: [fe.start, fe.end],
-            traces: fe.traces,
-            planes: fe.faces.map(|f| {
-                let p = &planar.planes[f as usize];
-                (p.centroid, p.normal)
-            }),
-            corners: fe.corners,
-            scale: fe.scale,
-            id,
-        })
-        .collect();
-    let mut rect = rect;
     rectify::rectify_plane_edges(
         &mut rect,
-        &cloud.positions,
-        &grid,
+        &surface,
         &features.candidate,
-        &plane_specs,
+        &new_edges,
+        &planar,
+        next,
         &settings.rectify,
     );
     clock.lap("rectify");
@@ -336,8 +321,8 @@ pub fn process(cloud: Cloud, settings: &Settings, clock: &mut impl LapClock) -> 
     let (mut edges, mut corners) =
         describe(&fits, &geometry, &corner_list, &edge_of_run, &convexity);
     // Plane edges after the fitted ones.
-    for (fe, side) in new_edges.iter().zip(&plane_convexity) {
-        edges.push(outcome::plane_edge(edges.len(), fe, side));
+    for (k, (fe, side)) in new_edges.iter().zip(&plane_convexity).enumerate() {
+        edges.push(outcome::plane_edge(next as usize + k, fe, side));
     }
     outcome::link_corners(&edges, &mut corners);
     Ok(Outcome {

@@ -34,6 +34,6 @@ pub use lines::{
 };
 pub use triangles::{closest_on_triangle, point_triangle, triangle_normal};
 pub use vec::{
-    V3, add, angle, axpy, bounds, cross, dist, dist2, div, dot, finite, mat_vec, neg, norm, norm2, reject,
-    scale, sub, unit,
+    V3, add, angle, axpy, bounds, cross, dist, dist2, div, dot, finite, mat_vec, neg, norm, norm2,
+    reject, scale, sub, unit,
 };

@@ -157,8 +157,8 @@ fn wedge(faces: [[f64; 3]; 2]) -> Option<Wedge> {
     let w = unit(sub(faces[1], faces[0]))?;
     let half = 0.5 * dot(faces[0], faces[1]).clamp(-1.0, 1.0).acos();
     // Each face's normal in the profile plane, towards the other face.
-    let inner_normals = [(faces[0], faces[1]), (faces[1], faces[0])]
-        .map(|(f, g)| unit(reject(g, f)).unwrap_or(b));
+    let inner_normals =
+        [(faces[0], faces[1]), (faces[1], faces[0])].map(|(f, g)| unit(reject(g, f)).unwrap_or(b));
     Some(Wedge {
         b,
         w,

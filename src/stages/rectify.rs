@@ -2,9 +2,10 @@
 //! other point keeps its coordinates bit for bit.
 //!
 //! Inputs: positions, the `EdgeFit`s (their slabs' abnormal zones and face traces), the final
-//! `EdgeGeometry`, the fitted corners and their edges, `RectifyParams` (lengths in each edge's own scale). Outputs: the
-//! rectified positions (a copy of the input where nothing moved), a moved flag and an edge
-//! label per point.
+//! `EdgeGeometry`, the fitted corners and their edges, the edges placed by planes with their
+//! `Faces`, `RectifyParams` (lengths in each edge's own scale). Outputs: the rectified
+//! positions (a copy of the input where nothing moved), a moved flag and an edge label per
+//! point.
 //!
 //! Along an edge, an abnormal point (between C and D of its slab) moves within its profile
 //! plane onto the nearer of the two face traces leaving the final edge (the paper's L1 and
@@ -13,11 +14,13 @@
 //! corner's edges as that edge's abnormal zone reaches move onto the nearest face plane of
 //! the corner.
 
-use crate::geometry::{add, cross, dot, norm, sub};
+use crate::geometry::{add, cross, dot, norm, point_segment, sub};
 use crate::neighbours::Grid;
 use crate::stages::corners::{CornerFit, EdgeGeometry};
-use crate::stages::edges::{EdgeFit, EdgeResult, mean_faces};
+use crate::stages::edges::{EdgeFit, EdgeResult, Surface, mean_faces};
+use crate::stages::faces::Faces;
 use crate::stages::features::Scale;
+use crate::stages::plane_corners::FaceEdge;
 
 /// Settings of the rectify stage (validated by `config`).
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
@@ -183,21 +186,6 @@ pub fn rectify(
     out
 }
 
-/// A straight edge placed by two planar faces (`stages::plane_corners`), which has no slabs:
-/// its ends, its faces' traces (unit, perpendicular to it, away from it), the scale of the
-/// surface there and its reported id.
-#[derive(Debug, Clone, Copy)]
-pub struct PlaneEdge {
-    pub ends: [[f64; 3]; 2],
-    pub traces: [[f64; 3]; 2],
-    /// The two faces' planes (a point on each, its unit normal).
-    pub planes: [([f64; 3], [f64; 3]); 2],
-    /// The reported corners at its ends.
-    pub corners: [usize; 2],
-    pub scale: Scale,
-    pub id: u32,
-}
-
 /// A point lies off its faces when farther than this many noise sigmas (plus a twentieth of
 /// a spacing) from the nearer face trace.
 const OFF_FACE_SIGMAS: f64 = 3.0;
@@ -206,24 +194,28 @@ const OFF_FACE_SIGMAS: f64 = 3.0;
 const ZONE_BIN: f64 = 0.5;
 const ZONE_OFF_SHARE: f64 = 0.5;
 
-/// Rectifies along edges placed by planes: the edge candidates within two radii of each,
-/// but not within a radius of its ends (where its corners' third faces come in), move onto
-/// the nearer face trace as along a fitted edge when they lie within its abnormal zone plus
-/// the margin of a fitted edge. The zone is measured from the candidates themselves (see
-/// `ZONE_BIN`). Points moved already keep their place. Then, around the corners at their
-/// ends, candidates as close to one of the corner's plane edges as its zone reaches move onto
-/// the nearest of the corner's face planes, as around a fitted corner.
+/// Rectifies along the edges placed by planes (`stages::plane_corners`, reported with ids
+/// from `first_id` on): the edge candidates within two radii of each, but not within a radius
+/// of its ends (where its corners' third faces come in), move onto the nearer face trace as
+/// along a fitted edge when they lie within its abnormal zone plus the margin of a fitted
+/// edge. The zone is measured from the candidates themselves (see `ZONE_BIN`). Points moved
+/// already keep their place. Then, around the corners at their ends, candidates as close to
+/// one of the corner's plane edges as its zone reaches move onto the nearest of the corner's
+/// face planes, as around a fitted corner.
 pub fn rectify_plane_edges(
     out: &mut Rectified,
-    positions: &[[f64; 3]],
-    grid: &Grid,
+    surface: &Surface,
     candidate: &[bool],
-    edges: &[PlaneEdge],
+    edges: &[FaceEdge],
+    faces: &Faces,
+    first_id: u32,
     params: &RectifyParams,
 ) {
+    let (positions, grid) = (surface.positions, surface.grid);
+    let id = |k: usize| first_id + k as u32;
     let mut zones: Vec<Option<f64>> = vec![None; edges.len()];
     for (k, e) in edges.iter().enumerate() {
-        let seg = sub(e.ends[1], e.ends[0]);
+        let seg = sub(e.end, e.start);
         let length = norm(seg);
         let sc = e.scale;
         if length <= 2.0 * sc.radius || sc.spacing <= 0.0 {
@@ -232,47 +224,29 @@ pub fn rectify_plane_edges(
         let d = seg.map(|x| x / length);
         // (id, along the faces, target on the traces, distance to it)
         let mut near: Vec<(u32, f64, [f64; 3], f64)> = Vec::new();
-        grid.for_each_near_segment(e.ends[0], e.ends[1], 2.0 * sc.radius, |i| {
+        grid.for_each_near_segment(e.start, e.end, 2.0 * sc.radius, |i| {
             let iu = i as usize;
             if !candidate[iu] || out.moved[iu] {
                 return;
             }
             let p = positions[iu];
-            let t = dot(sub(p, e.ends[0]), d);
+            let t = dot(sub(p, e.start), d);
             if !(sc.radius..=length - sc.radius).contains(&t) {
                 return;
             }
-            let c = add(e.ends[0], d.map(|x| x * t));
+            let c = add(e.start, d.map(|x| x * t));
             let q = onto_traces(p, c, d, &e.traces);
             near.push((i, along_face(p, c, d, &e.traces), q, norm(sub(q, p))));
         });
         near.sort_unstable_by_key(|x| x.0);
-        let off_limit = OFF_FACE_SIGMAS * sc.noise + 0.05 * sc.spacing;
-        let bins = ((2.0 * sc.radius) / (ZONE_BIN * sc.spacing)).ceil() as usize + 1;
-        let mut count = vec![[0usize; 2]; bins];
-        for x in &near {
-            let b = ((x.1 / (ZONE_BIN * sc.spacing)) as usize).min(bins - 1);
-            count[b][0] += 1;
-            count[b][1] += usize::from(x.3 > off_limit);
-        }
-        let Some(end) = count
-            .iter()
-            .position(|c| (c[1] as f64) < ZONE_OFF_SHARE * c[0] as f64)
-        else {
+        let Some(zone) = plane_edge_zone(&near, &sc, params) else {
             continue;
         };
-        if end == 0 {
-            continue;
-        }
-        let zone = end as f64 * ZONE_BIN * sc.spacing + params.zone_margin * sc.spacing + sc.noise;
         zones[k] = Some(zone);
         let max_move = params.max_move * sc.radius;
-        for (i, along, q, moved) in near {
-            if along > zone {
-                continue;
-            }
+        for &(i, _, q, moved) in near.iter().filter(|x| x.1 <= zone) {
             let i = i as usize;
-            out.label[i] = e.id;
+            out.label[i] = id(k);
             if params.enabled && moved <= max_move {
                 out.positions[i] = q;
                 out.moved[i] = true;
@@ -289,13 +263,19 @@ pub fn rectify_plane_edges(
     at_corner.sort_unstable();
     for group in at_corner.chunk_by(|a, b| a.0 == b.0) {
         let incident: Vec<usize> = group.iter().map(|x| x.1).collect();
-        let planes: Vec<([f64; 3], [f64; 3])> =
-            incident.iter().flat_map(|&k| edges[k].planes).collect();
+        let planes: Vec<([f64; 3], [f64; 3])> = incident
+            .iter()
+            .flat_map(|&k| edges[k].faces)
+            .map(|f| {
+                let p = &faces.planes[f as usize];
+                (p.centroid, p.normal)
+            })
+            .collect();
         let first = &edges[incident[0]];
         let corner = if group[0].0 == first.corners[0] {
-            first.ends[0]
+            first.start
         } else {
-            first.ends[1]
+            first.end
         };
         let widest = incident
             .iter()
@@ -313,18 +293,39 @@ pub fn rectify_plane_edges(
             }
             let p = positions[iu];
             let on = incident.iter().find(|&&k| {
-                let e = &edges[k];
-                let (dist, _) = crate::geometry::point_segment(p, e.ends[0], e.ends[1]);
+                let (dist, _) = point_segment(p, edges[k].start, edges[k].end);
                 zones[k].is_some_and(|z| dist <= z)
             });
             let Some(&k) = on else { return };
-            out.label[iu] = edges[k].id;
-            if !params.enabled {
-                return;
+            out.label[iu] = id(k);
+            if params.enabled {
+                onto_nearest_plane(out, iu, p, &planes, max_move);
             }
-            onto_nearest_plane(out, iu, p, &planes, max_move);
         });
     }
+}
+
+/// The abnormal zone of a plane edge, from its candidates `near` (id, distance along the
+/// faces, target, distance off the faces): out to the first bin where most lie on the faces,
+/// plus the margin of a fitted edge; `None` when none lies off them next to the edge.
+fn plane_edge_zone(
+    near: &[(u32, f64, [f64; 3], f64)],
+    sc: &Scale,
+    params: &RectifyParams,
+) -> Option<f64> {
+    let off_limit = OFF_FACE_SIGMAS * sc.noise + 0.05 * sc.spacing;
+    let bins = ((2.0 * sc.radius) / (ZONE_BIN * sc.spacing)).ceil() as usize + 1;
+    let mut count = vec![[0usize; 2]; bins];
+    for x in near {
+        let b = ((x.1 / (ZONE_BIN * sc.spacing)) as usize).min(bins - 1);
+        count[b][0] += 1;
+        count[b][1] += usize::from(x.3 > off_limit);
+    }
+    let end = count
+        .iter()
+        .position(|c| (c[1] as f64) < ZONE_OFF_SHARE * c[0] as f64)?;
+    (end > 0)
+        .then_some(end as f64 * ZONE_BIN * sc.spacing + params.zone_margin * sc.spacing + sc.noise)
 }
 
 /// Moves point `i` (at `p`) onto the nearest of a corner's face `planes` (a point on each,
