@@ -8,11 +8,11 @@
 use serde::Serialize;
 
 use crate::cloud::Cloud;
-use crate::geometry::{dot, norm, sub};
+use crate::geometry::{norm, sub};
 use crate::left_out::LeftOut;
 use crate::stages::convexity::{Convexity, Votes};
 use crate::stages::corners::{CornerFit, EdgeGeometry};
-use crate::stages::edges::EdgeResult;
+use crate::stages::edges::{EdgeResult, traces_angle};
 use crate::stages::features::{Features, Scale};
 use crate::stages::plane_corners::FaceEdge;
 use crate::stages::segment::Segments;
@@ -244,12 +244,7 @@ pub fn plane_edge(id: usize, edge: &FaceEdge, convexity: &Convexity) -> EdgeOut 
         corners: edge.corners.map(Some),
         convex: convexity.convex(),
         convex_votes: convexity.votes(),
-        dihedral_deg: Some(
-            dot(edge.traces[0], edge.traces[1])
-                .clamp(-1.0, 1.0)
-                .acos()
-                .to_degrees(),
-        ),
+        dihedral_deg: Some(traces_angle(&edge.traces)),
         polyline: vec![start, end],
         closed: false,
         rectified: Vec::new(),

@@ -811,7 +811,12 @@ fn smooth_bend(profile: &[[f64; 2]], fit: &ProfileFit) -> Option<f64> {
 /// Angle between a slab's two face traces, in degrees: the profile's interior angle, 180° where
 /// the faces do not turn.
 fn slab_angle(s: &SlabFit) -> f64 {
-    dot(s.faces[0], s.faces[1])
+    traces_angle(&s.faces)
+}
+
+/// Angle between two unit face traces leaving an edge, in degrees: its interior angle.
+pub fn traces_angle(traces: &[[f64; 3]; 2]) -> f64 {
+    dot(traces[0], traces[1])
         .clamp(-1.0, 1.0)
         .acos()
         .to_degrees()

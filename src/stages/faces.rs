@@ -51,11 +51,10 @@ const OPEN_SHARE: f64 = 0.05;
 /// `PLANE_SLACK` spacings): a flat face scatters by sigma, a curved patch by its sag.
 const FLAT_RMS: f64 = 1.5;
 
-/// One planar face: the points with `n · x = offset` (unit normal, sign arbitrary).
+/// One planar face: the plane through `centroid` with unit `normal` (sign arbitrary).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Plane {
     pub normal: [f64; 3],
-    pub offset: f64,
     /// Centroid of the face's points.
     pub centroid: [f64; 3],
     pub points: usize,
@@ -97,14 +96,8 @@ pub fn planar_faces(
     // points that may join a face, in cells that wide, reads a small share of what the
     // features' grid (all points, cells of a radius) would.
     let fine = {
-        let mut spacing = scale.spacing.clone();
-        let k = (spacing.len().saturating_sub(1) * 9) / 10;
-        let cell = spacing
-            .select_nth_unstable_by(k.min(n.saturating_sub(1)), f32::total_cmp)
-            .1
-            .to_owned();
         let sub: Vec<[f64; 3]> = ids.iter().map(|&i| positions[i as usize]).collect();
-        Grid::new(&sub, REACH * f64::from(cell)).ok()
+        Grid::new(&sub, REACH * scale.spacing_quantile(0.9)).ok()
     };
     let (grid, to_id): (&Grid, Option<&[u32]>) = match &fine {
         Some(g) => (g, Some(&ids)),
@@ -127,7 +120,7 @@ pub fn planar_faces(
         };
         MIN_FACE_POINTS.max(MIN_FACE_NEIGHBOURHOODS * median)
     };
-    // 0 = free, 1 = taken by a face or tried as part of a region that was no face.
+    // Taken by a face or tried as part of a region that was no face.
     let mut taken = vec![false; n];
     // Taken by a region that was no face (a curved patch, a scrap): such points around a
     // region mean that the surface goes on around it, as refused points do.
@@ -308,12 +301,7 @@ fn near_candidates(
     features: &Features,
     scale: &LocalScale,
 ) -> Option<Vec<bool>> {
-    let mut radius = scale.radius.clone();
-    if radius.is_empty() {
-        return None;
-    }
-    let k = (radius.len() - 1) * 9 / 10;
-    let cell = NEAR_CANDIDATES * f64::from(*radius.select_nth_unstable_by(k, f32::total_cmp).1);
+    let cell = NEAR_CANDIDATES * scale.radius_quantile(0.9);
     if cell.is_nan() || cell <= 0.0 {
         return None;
     }
@@ -408,7 +396,6 @@ pub fn fit_plane(
     let local = scale.around(ids.iter().copied())?;
     Some(Plane {
         normal: pca.normal,
-        offset: dot(pca.normal, centroid),
         centroid,
         points: ids.len(),
         rms: (pca.eigenvalues[0]).sqrt(),

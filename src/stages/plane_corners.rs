@@ -15,7 +15,7 @@
 
 use rayon::prelude::*;
 
-use crate::geometry::{cross, dot, norm, solve3, sub};
+use crate::geometry::{add, axpy, cross, dot, norm, scale, solve3, sub};
 use crate::neighbours::Grid;
 use crate::stages::corners::{CornerFit, EdgeGeometry};
 use crate::stages::edges::{EdgeParams, fillet_limit};
@@ -31,10 +31,11 @@ pub struct FaceCorner {
     /// Edge candidates near the corner that see the first three faces around them.
     pub support: usize,
     /// Median local scale of those candidates.
-    pub spacing: f64,
-    pub noise: f64,
-    pub radius: f64,
+    pub scale: Scale,
 }
+
+/// A face triple named by an edge candidate (its id).
+type Vote = ([u32; 3], u32);
 
 /// An edge candidate sees a face when at least this many of the face's points lie within
 /// `SEE_REACH` of its own radius.
@@ -79,16 +80,18 @@ pub fn face_corners(
         .filter(|&i| features.candidate[i as usize] && !features.outlier[i as usize])
         .step_by(VOTE_STRIDE)
         .collect();
-    // (face triple, candidate) for every candidate that sees three faces or more.
-    let mut votes: Vec<([u32; 3], u32)> = candidates
+    // (face triple, candidate) for every candidate that sees three faces or more; each
+    // worker keeps one list and one scratch of seen faces (sorted below, so the order in which
+    // workers fill them does not matter).
+    let mut votes: Vec<Vote> = candidates
         .par_iter()
-        .flat_map_iter(|&c| {
-            let i = c as usize;
-            let mut seen: Vec<(u32, usize)> = Vec::new();
-            grid.for_each_within(
-                positions[i],
-                SEE_REACH * f64::from(scale.radius[i]),
-                |j, _, _| {
+        .fold(
+            || (Vec::new(), Vec::new()),
+            |(mut out, mut seen): (Vec<Vote>, Vec<(u32, usize)>), &c| {
+                let i = c as usize;
+                seen.clear();
+                let reach = SEE_REACH * f64::from(scale.radius[i]);
+                grid.for_each_within(positions[i], reach, |j, _, _| {
                     let l = faces.label[j as usize];
                     if l == NO_FACE {
                         return;
@@ -97,24 +100,26 @@ pub fn face_corners(
                         Some(s) => s.1 += 1,
                         None => seen.push((l, 1)),
                     }
-                },
-            );
-            seen.retain(|s| s.1 >= SEE_POINTS);
-            seen.sort_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(&b.0)));
-            seen.truncate(6);
-            let mut ids: Vec<u32> = seen.iter().map(|s| s.0).collect();
-            ids.sort_unstable();
-            let mut out = Vec::new();
-            for a in 0..ids.len() {
-                for b in a + 1..ids.len() {
-                    for d in b + 1..ids.len() {
-                        out.push(([ids[a], ids[b], ids[d]], c));
+                });
+                seen.retain(|s| s.1 >= SEE_POINTS);
+                seen.sort_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(&b.0)));
+                seen.truncate(6);
+                seen.sort_unstable_by_key(|s| s.0);
+                for (a, x) in seen.iter().enumerate() {
+                    for (b, y) in seen.iter().enumerate().skip(a + 1) {
+                        for z in &seen[b + 1..] {
+                            out.push(([x.0, y.0, z.0], c));
+                        }
                     }
                 }
-            }
-            out
-        })
-        .collect();
+                (out, seen)
+            },
+        )
+        .map(|(out, _)| out)
+        .reduce(Vec::new, |mut a, mut b| {
+            a.append(&mut b);
+            a
+        });
     votes.par_sort_unstable();
     tracing::debug!(
         "plane corners: {} face triples named by {} candidates",
@@ -124,12 +129,9 @@ pub fn face_corners(
     // A face split in two is one plane, not two faces of a corner.
     let cos_min = MIN_FACE_ANGLE.to_radians().cos();
     let mut found: Vec<FaceCorner> = Vec::new();
-    let mut start = 0;
-    while start < votes.len() {
-        let triple = votes[start].0;
-        let end = start + votes[start..].iter().take_while(|v| v.0 == triple).count();
-        let voters: Vec<u32> = votes[start..end].iter().map(|v| v.1).collect();
-        start = end;
+    for group in votes.chunk_by(|a, b| a.0 == b.0) {
+        let triple = group[0].0;
+        let voters: Vec<u32> = group.iter().map(|v| v.1).collect();
         if voters.len() < MIN_SUPPORT {
             continue;
         }
@@ -198,18 +200,16 @@ pub fn face_corners(
             position,
             faces: triple.to_vec(),
             support: voters.len(),
-            spacing: local.spacing,
-            noise: local.noise,
-            radius: r,
+            scale: local,
         });
     }
     // Best supported first; a corner near one kept already adds its faces to it.
     found.sort_by(|a, b| b.support.cmp(&a.support).then(a.faces.cmp(&b.faces)));
     let mut kept: Vec<FaceCorner> = Vec::new();
     for c in found {
-        let same = kept
-            .iter_mut()
-            .find(|k| norm(sub(k.position, c.position)) < SAME_CORNER * k.radius.max(c.radius));
+        let same = kept.iter_mut().find(|k| {
+            norm(sub(k.position, c.position)) < SAME_CORNER * k.scale.radius.max(c.scale.radius)
+        });
         match same {
             Some(k) => {
                 for f in c.faces {
@@ -229,7 +229,7 @@ pub fn face_corners(
             if let Some(p) = intersect(&planes) {
                 let fits = planes
                     .iter()
-                    .all(|pl| pl.distance(p).abs() <= SAME_CORNER * k.radius);
+                    .all(|pl| pl.distance(p).abs() <= SAME_CORNER * k.scale.radius);
                 if fits {
                     k.position = p;
                 }
@@ -324,7 +324,7 @@ pub fn intersect(planes: &[Plane]) -> Option<[f64; 3]> {
         }
     }
     let x = solve3(&a, &b)?;
-    Some([0, 1, 2].map(|k| origin[k] + x[k]))
+    Some(add(origin, x))
 }
 
 /// A straight sharp edge between two plane corners: where two planar faces meet, from one
@@ -371,12 +371,9 @@ pub fn face_edges(
     }
     on_pair.sort_unstable();
     let mut out = Vec::new();
-    let mut start = 0;
-    while start < on_pair.len() {
-        let pair = on_pair[start].0;
-        let end = start + on_pair[start..].iter().take_while(|x| x.0 == pair).count();
-        let ids: Vec<usize> = on_pair[start..end].iter().map(|x| x.1).collect();
-        start = end;
+    for group in on_pair.chunk_by(|a, b| a.0 == b.0) {
+        let pair = group[0].0;
+        let ids: Vec<usize> = group.iter().map(|x| x.1).collect();
         if ids.len() < 2 {
             continue;
         }
@@ -403,12 +400,18 @@ pub fn face_edges(
             if l == 0.0 || norm(cross(seg.map(|x| x / l), d)) > ALONG_LINE {
                 continue;
             }
-            let r = corners[c0].radius.min(corners[c1].radius);
+            // At the scale of the corner with the smaller radius.
+            let sc = if corners[c0].scale.radius <= corners[c1].scale.radius {
+                corners[c0].scale
+            } else {
+                corners[c1].scale
+            };
+            let r = sc.radius;
             let steps = (l / r).ceil().max(1.0) as usize;
             let mut candidates = 0usize;
             let covered = (0..=steps).all(|s| {
                 let t = s as f64 / steps as f64;
-                let q = [0, 1, 2].map(|m| p0[m] + seg[m] * t);
+                let q = axpy(p0, t, seg);
                 let mut n = 0;
                 grid.for_each_within(q, r, |j, _, _| {
                     n += usize::from(features.candidate[j as usize]);
@@ -419,14 +422,9 @@ pub fn face_edges(
             if !covered {
                 continue;
             }
-            let mid = [0, 1, 2].map(|m| 0.5 * (p0[m] + p1[m]));
+            let mid = scale(add(p0, p1), 0.5);
             let Some(traces) = traces(positions, grid, faces, pair, d, mid, FACE_NEAR * r) else {
                 continue;
-            };
-            let near = if corners[c0].radius <= corners[c1].radius {
-                &corners[c0]
-            } else {
-                &corners[c1]
             };
             out.push(FaceEdge {
                 corners: [c0, c1],
@@ -435,11 +433,7 @@ pub fn face_edges(
                 end: p1,
                 points: candidates,
                 traces,
-                scale: Scale {
-                    spacing: near.spacing,
-                    noise: near.noise,
-                    radius: near.radius,
-                },
+                scale: sc,
             });
         }
     }
@@ -466,7 +460,7 @@ fn traces(
             if l == pair[k] {
                 seen[k] = true;
                 let off = sub(positions[j as usize], at);
-                towards[k] = [0, 1, 2].map(|m| towards[k][m] + off[m]);
+                towards[k] = add(towards[k], off);
             }
         }
     });
@@ -523,7 +517,7 @@ pub fn place_corners(found: &[FaceCorner], corners: &mut Vec<CornerFit>) -> Vec<
             .iter()
             .enumerate()
             .map(|(i, c)| (norm(sub(c.position, fc.position)), i))
-            .filter(|(d, _)| *d < SAME_AS_FITTED * fc.radius)
+            .filter(|(d, _)| *d < SAME_AS_FITTED * fc.scale.radius)
             .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
         match near {
             Some((_, i)) => {
@@ -559,7 +553,7 @@ pub fn place_edges(
     let mut own = Vec::new();
     for fe in edges {
         let ends = fe.corners.map(|c| corner_index[c]);
-        let tolerance = 1.5 * found[fe.corners[0]].spacing;
+        let tolerance = 1.5 * found[fe.corners[0]].scale.spacing;
         let same = geometry.iter_mut().flatten().find(|g| {
             g.polyline.len() == 2
                 && overlaps(fe.start, fe.end, g.polyline[0], g.polyline[1], tolerance)
@@ -592,7 +586,6 @@ mod tests {
         let n = normal.map(|x| x / l);
         Plane {
             normal: n,
-            offset: dot(n, point),
             centroid: point,
             points: 100,
             rms: 0.0,

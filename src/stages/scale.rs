@@ -175,15 +175,14 @@ impl LocalScale {
         })
     }
 
-    /// The `q`-quantile of the radii (0 ≤ q ≤ 1): the neighbour grid's cell.
+    /// The `q`-quantile of the radii (0 ≤ q ≤ 1): the neighbour grid's cell; 0 for none.
     pub fn radius_quantile(&self, q: f64) -> f64 {
-        let mut r = self.radius.clone();
-        if r.is_empty() {
-            return 0.0;
-        }
-        let k = ((r.len() - 1) as f64 * q.clamp(0.0, 1.0)).round() as usize;
-        let (_, v, _) = r.select_nth_unstable_by(k, f32::total_cmp);
-        f64::from(*v)
+        quantile_by(&mut self.radius.clone(), q, f32::total_cmp).map_or(0.0, f64::from)
+    }
+
+    /// The `q`-quantile of the spacings (0 ≤ q ≤ 1); 0 for none.
+    pub fn spacing_quantile(&self, q: f64) -> f64 {
+        quantile_by(&mut self.spacing.clone(), q, f32::total_cmp).map_or(0.0, f64::from)
     }
 }
 
@@ -374,12 +373,20 @@ pub fn sector_spacing(in_plane: &[(f64, f64)], start: f64) -> Option<f64> {
 
 /// The `q`-quantile (nearest rank) of `v`; NaN when empty.
 fn quantile(v: &mut [f64], q: f64) -> f64 {
+    quantile_by(v, q, f64::total_cmp).unwrap_or(f64::NAN)
+}
+
+/// The `q`-quantile (nearest rank, 0 ≤ q ≤ 1) of `v` in the order `cmp`; `None` when empty.
+fn quantile_by<T: Copy>(
+    v: &mut [T],
+    q: f64,
+    cmp: impl FnMut(&T, &T) -> std::cmp::Ordering,
+) -> Option<T> {
     if v.is_empty() {
-        return f64::NAN;
+        return None;
     }
-    let k = ((v.len() - 1) as f64 * q).round() as usize;
-    let (_, x, _) = v.select_nth_unstable_by(k, f64::total_cmp);
-    *x
+    let k = ((v.len() - 1) as f64 * q.clamp(0.0, 1.0)).round() as usize;
+    Some(*v.select_nth_unstable_by(k, cmp).1)
 }
 
 #[cfg(test)]
