@@ -78,6 +78,13 @@ pub enum Error {
     /// corner, all points identical for a line, a NaN in the input.
     #[error("{what}: degenerate input: {why}")]
     Degenerate { what: &'static str, why: String },
+    /// A fit whose lines are all (nearly) parallel, so they meet nowhere: for a 2D profile, a
+    /// surface that does not turn rather than a failed fit. Printed like `Degenerate`.
+    #[error("{what}: degenerate input: {why}")]
+    Parallel {
+        what: &'static str,
+        why: &'static str,
+    },
     /// One side of a corner fit has too few points (given, or left after line propagation).
     /// `side` is 1-based, in the caller's order.
     #[error("{fit}: side {side} has {got} usable points, needs at least {needed}: {hint}")]

@@ -444,10 +444,12 @@ fn check_not_collinear(cloud: &Cloud, spacing: f64) -> Result<()> {
 /// few points) get the input file, so a batch log names the culprit.
 fn in_file(path: &Path, e: Error) -> Error {
     match e {
-        Error::Degenerate { .. } | Error::TooFewPoints { .. } => Error::BadCloud {
-            path: path.to_path_buf(),
-            what: e.to_string(),
-        },
+        Error::Degenerate { .. } | Error::Parallel { .. } | Error::TooFewPoints { .. } => {
+            Error::BadCloud {
+                path: path.to_path_buf(),
+                what: e.to_string(),
+            }
+        }
         e => e,
     }
 }

@@ -284,9 +284,9 @@ pub(crate) fn check_not_parallel<const D: usize, C: Case<D>>(
         }
     }
     if widest < sin_min {
-        return Err(Error::Degenerate {
+        return Err(Error::Parallel {
             what: C::WHAT,
-            why: C::PARALLEL.into(),
+            why: C::PARALLEL,
         });
     }
     Ok(())

@@ -51,8 +51,9 @@
 //! - Degenerate input is an `Err`, never a panic or NaN: too few points
 //!   ([`crate::Error::TooFewPoints`]) or too few on one side after propagation
 //!   ([`crate::Error::SideTooSmall`], naming the side); non-finite coordinates, coincident
-//!   points, a single arm, parallel sides (all points on one line), and for the paper's raw
-//!   line forms a line they cannot represent ([`crate::Error::Degenerate`]); parameters out
+//!   points, a single arm, and for the paper's raw line forms a line they cannot represent
+//!   ([`crate::Error::Degenerate`]); parallel sides, all points on one line
+//!   ([`crate::Error::Parallel`]); parameters out
 //!   of range ([`crate::Error::InvalidParameter`]).
 //!
 //! # Invariances

@@ -49,7 +49,7 @@ pub(crate) struct Profile;
 /// Whether `e` is a profile fit's refusal of (nearly) parallel sides: a profile that does not
 /// turn, one flat surface rather than a failed fit.
 pub fn is_flat_profile(e: &Error) -> bool {
-    matches!(e, Error::Degenerate { what, why } if *what == WHAT && why == <Profile as Case<2>>::PARALLEL)
+    matches!(e, Error::Parallel { what, .. } if *what == WHAT)
 }
 
 /// Result of [`super::fit_profile_2d`], in input coordinates. Reuse one across calls with
