@@ -9,9 +9,9 @@
 
 use serde::Serialize;
 
-/// Why a candidate gave no edge or corner. The order is the order of the summary.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize)]
-#[serde(rename_all = "snake_case")]
+/// Why a candidate gave no edge or corner. The order is the order of the summary. Serialised
+/// as its [`Reason::name`], the one table of its names.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub enum Reason {
     /// The faces meet through a rounding wider than `edges.max_rounding`: a fillet.
     Fillet,
@@ -49,6 +49,12 @@ impl Reason {
             Reason::VirtualCorner => "virtual_corner",
             Reason::Failed => "failed",
         }
+    }
+}
+
+impl Serialize for Reason {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(self.name())
     }
 }
 

@@ -29,23 +29,19 @@ pub fn write_rectified(
 ) -> Result<()> {
     let fields = PointFields::of(outcome);
     let f = &outcome.features;
-    // A point in an edge's zone has that edge's kind.
-    let mut code_of_id =
-        vec![kind::EDGE; outcome.edges.iter().map(|e| e.id + 1).max().unwrap_or(0)];
-    for e in &outcome.edges {
-        code_of_id[e.id] = e.kind.code();
-    }
-    let edge_code: Vec<Option<u8>> = outcome
-        .edge_label
-        .iter()
-        .map(|&l| {
-            (l != u32::MAX).then(|| code_of_id.get(l as usize).copied().unwrap_or(kind::EDGE))
+    // A point in an edge's zone has that edge's kind (edges are reported with id = index).
+    let edge_code = |l: u32| {
+        (l != u32::MAX).then(|| {
+            outcome
+                .edges
+                .get(l as usize)
+                .map_or(kind::EDGE, |e| e.kind.code())
         })
-        .collect();
-    let edge: Vec<bool> = edge_code.iter().map(Option::is_some).collect();
+    };
+    let edge: Vec<bool> = outcome.edge_label.iter().map(|&l| l != u32::MAX).collect();
     let kinds: Vec<u8> = (0..outcome.cloud.len())
         .map(|i| {
-            if let Some(e) = edge_code[i] {
+            if let Some(e) = edge_code(outcome.edge_label[i]) {
                 e
             } else if f.outlier[i] {
                 kind::OUTLIER

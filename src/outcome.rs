@@ -67,12 +67,6 @@ pub enum EdgeKind {
 }
 
 impl EdgeKind {
-    pub fn name(self) -> &'static str {
-        match self {
-            EdgeKind::Sharp => "sharp",
-        }
-    }
-
     /// The value of the `edge_kind` code table (`kind`) for this kind: a point in
     /// a sharp edge's zone has `edge_kind` 2 in a LAS/LAZ output, and so do the sharp edge's
     /// vertices in features.ply.

@@ -324,6 +324,7 @@ pub fn process(cloud: Cloud, settings: &Settings, clock: &mut impl LapClock) -> 
     for (k, (fe, side)) in new_edges.iter().zip(&plane_convexity).enumerate() {
         edges.push(outcome::plane_edge(next as usize + k, fe, side));
     }
+    debug_assert!(edges.iter().enumerate().all(|(i, e)| e.id == i));
     outcome::link_corners(&edges, &mut corners);
     Ok(Outcome {
         cloud,

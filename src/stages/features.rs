@@ -69,12 +69,20 @@ impl FeatureParams {
 
 impl Default for FeatureParams {
     fn default() -> Self {
+        // The scale rules' defaults are the scale stage's (one place for them).
+        let ScaleRules {
+            radius,
+            noise,
+            min_radius,
+            noise_radius,
+            normal_radius,
+        } = ScaleRules::default();
         FeatureParams {
-            radius: None,
-            noise: None,
-            min_radius: 4.0,
-            noise_radius: 6.0,
-            normal_radius: NORMAL_RADIUS,
+            radius,
+            noise,
+            min_radius,
+            noise_radius,
+            normal_radius,
             threshold: 3.0,
             split_threshold: 0.008,
             split_noise_factor: 15.0,

@@ -21,7 +21,7 @@
 //!   the third smallest is the distance to the next line. On a pixel grid it is the larger
 //!   pitch; on uniform sampling about the mean spacing (calibrated below); at a scan border
 //!   half the sectors are empty and the rest still give it.
-//! - The **noise** is the out-of-plane sigma of those 64 neighbours (the plane's three
+//! - The **noise** is the out-of-plane sigma of those 48 neighbours (the plane's three
 //!   parameters taken out: λ0·n/(n−3)).
 //! - Both are measured at one point per occupied cell of a grid 10 mean spacings wide (a few
 //!   percent of the points: the k-nearest queries would otherwise dominate the run) and
