@@ -97,7 +97,7 @@ pub fn planar_faces(
     // features' grid (all points, cells of a radius) would.
     let fine = {
         let sub: Vec<[f64; 3]> = ids.iter().map(|&i| positions[i as usize]).collect();
-        Grid::new(&sub, REACH * scale.spacing_quantile(0.9)).ok()
+        Grid::new(&sub, REACH * nine_in_ten(&scale.spacing)).ok()
     };
     let (grid, to_id): (&Grid, Option<&[u32]>) = match &fine {
         Some(g) => (g, Some(&ids)),
@@ -301,7 +301,7 @@ fn near_candidates(
     features: &Features,
     scale: &LocalScale,
 ) -> Option<Vec<bool>> {
-    let cell = NEAR_CANDIDATES * scale.radius_quantile(0.9);
+    let cell = NEAR_CANDIDATES * nine_in_ten(&scale.radius);
     if cell.is_nan() || cell <= 0.0 {
         return None;
     }
@@ -339,6 +339,16 @@ fn near_candidates(
         }
     }
     Some(positions.iter().map(|p| near[index(*p)]).collect())
+}
+
+/// The value nine in ten of `v` are at most (rank ⌊0.9·(n−1)⌋); 0 for none.
+fn nine_in_ten(v: &[f32]) -> f64 {
+    let mut v = v.to_vec();
+    if v.is_empty() {
+        return 0.0;
+    }
+    let k = (v.len() - 1) * 9 / 10;
+    f64::from(*v.select_nth_unstable_by(k, f32::total_cmp).1)
 }
 
 /// The plane of a grown region when it is a planar face: large enough, closed (see

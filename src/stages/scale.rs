@@ -179,11 +179,6 @@ impl LocalScale {
     pub fn radius_quantile(&self, q: f64) -> f64 {
         quantile_by(&mut self.radius.clone(), q, f32::total_cmp).map_or(0.0, f64::from)
     }
-
-    /// The `q`-quantile of the spacings (0 ≤ q ≤ 1); 0 for none.
-    pub fn spacing_quantile(&self, q: f64) -> f64 {
-        quantile_by(&mut self.spacing.clone(), q, f32::total_cmp).map_or(0.0, f64::from)
-    }
 }
 
 /// Measures every point's spacing, noise and radius (see the module comment). `spacing` is
