@@ -20,11 +20,11 @@
 //! the same way, so its points are "border" too: the found length that counts is the part
 //! not within the edge tolerance of a required true stretch (a seen sharp edge).
 
-use crate::geometry::{V3, dot, norm, scale, sub};
+use crate::geometry::{V3, add, dot, norm, reject, scale, triangle_normal};
 use crate::neighbours::Grid;
 use crate::synth::{GroundTruth, PointTruth, TruthSurface};
 
-use super::score::SegmentSet;
+use super::score::{SegmentSet, midpoints};
 use super::seen::SIDE_ANGLE_DEG;
 
 /// Neighbourhood radius of the border test, in pitches of the scan.
@@ -72,7 +72,7 @@ pub fn border_points(gt: &GroundTruth, truth: &[PointTruth], pitch: f64) -> Vec<
             grid.for_each_within(t.surface, r, |j, d, _| {
                 let q = &truth[j as usize];
                 if usable(q) && continues(gt, t.face, q.face) {
-                    sum = [0, 1, 2].map(|k| sum[k] + d[k]);
+                    sum = add(sum, d);
                     n += 1;
                 }
             });
@@ -81,7 +81,7 @@ pub fn border_points(gt: &GroundTruth, truth: &[PointTruth], pitch: f64) -> Vec<
                 return false;
             }
             let c = scale(sum, 1.0 / n as f64);
-            let across = sub(c, scale(face.normal, dot(c, face.normal)));
+            let across = reject(c, face.normal);
             norm(across) > BORDER_SHIFT * r
         })
         .collect()
@@ -113,9 +113,7 @@ pub fn creases(gt: &GroundTruth, sharp_deg: f64) -> Vec<(V3, V3)> {
     };
     let normal = |t: &[u32; 3]| {
         let [a, b, c] = t.map(|v| vertices[v as usize]);
-        let n = crate::geometry::cross(sub(b, a), sub(c, a));
-        let l = norm(n);
-        (l > 0.0).then(|| scale(n, 1.0 / l))
+        triangle_normal(a, b, c)
     };
     let mut by_edge: std::collections::BTreeMap<(u32, u32), Vec<usize>> = Default::default();
     for (i, t) in triangles.iter().enumerate() {
@@ -150,18 +148,9 @@ pub fn found_length_near(
     step: f64,
 ) -> f64 {
     let mut total = 0.0;
-    for &(a, b) in found {
-        let len = crate::geometry::dist(a, b);
-        if len == 0.0 {
-            continue;
-        }
-        let n = (len / step).ceil().max(1.0) as usize;
-        for k in 0..n {
-            let t = (k as f64 + 0.5) / n as f64;
-            let p = [0, 1, 2].map(|c| a[c] + t * (b[c] - a[c]));
-            if near.nearest_within(p).is_some() && except.nearest_within(p).is_none() {
-                total += len / n as f64;
-            }
+    for (p, weight) in midpoints(found, step) {
+        if near.nearest_within(p).is_some() && except.nearest_within(p).is_none() {
+            total += weight;
         }
     }
     total

@@ -15,7 +15,7 @@
 
 use std::collections::HashMap;
 
-use crate::geometry::{V3, dist, point_segment};
+use crate::geometry::{V3, dist, point_segment, sub};
 
 /// A found corner matched to a true one.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -310,30 +310,35 @@ pub struct EdgeSample {
     pub offset: V3,
 }
 
+/// The midpoints of `segments` cut into pieces at most `step` long, each with its piece's
+/// length (zero-length segments give none), segment by segment, start to end.
+pub fn midpoints(segments: &[(V3, V3)], step: f64) -> impl Iterator<Item = (V3, f64)> + '_ {
+    segments.iter().flat_map(move |&(a, b)| {
+        let len = dist(a, b);
+        let n = if len == 0.0 {
+            0
+        } else {
+            (len / step).ceil().max(1.0) as usize
+        };
+        (0..n).map(move |k| (lerp(a, b, (k as f64 + 0.5) / n as f64), len / n as f64))
+    })
+}
+
 /// Dense samples of `segments` within `truth`'s reach, with their distance to the nearest
 /// true segment. Samples are the midpoints of pieces at most `step` long.
 pub fn edge_samples(segments: &[(V3, V3)], truth: &SegmentSet, step: f64) -> Vec<EdgeSample> {
     let mut out = Vec::new();
-    for &(a, b) in segments {
-        let len = dist(a, b);
-        if len == 0.0 {
-            continue;
-        }
-        let n = (len / step).ceil().max(1.0) as usize;
-        let weight = len / n as f64;
-        for k in 0..n {
-            let p = lerp(a, b, (k as f64 + 0.5) / n as f64);
-            if let Some((distance, segment)) = truth.nearest_within(p) {
-                let (c, d) = truth.segments()[segment];
-                let (_, t) = point_segment(p, c, d);
-                let q = lerp(c, d, t);
-                out.push(EdgeSample {
-                    weight,
-                    distance,
-                    segment,
-                    offset: [p[0] - q[0], p[1] - q[1], p[2] - q[2]],
-                });
-            }
+    for (p, weight) in midpoints(segments, step) {
+        if let Some((distance, segment)) = truth.nearest_within(p) {
+            let (c, d) = truth.segments()[segment];
+            let (_, t) = point_segment(p, c, d);
+            let q = lerp(c, d, t);
+            out.push(EdgeSample {
+                weight,
+                distance,
+                segment,
+                offset: sub(p, q),
+            });
         }
     }
     out
