@@ -25,7 +25,7 @@ use crate::neighbours::Grid;
 use crate::synth::{GroundTruth, PointTruth, TruthSurface};
 
 use super::score::{SegmentSet, midpoints};
-use super::seen::SIDE_ANGLE_DEG;
+use super::seen::within_side_angle;
 
 /// Neighbourhood radius of the border test, in pitches of the scan.
 pub const BORDER_RADIUS: f64 = 2.5;
@@ -41,9 +41,7 @@ fn continues(gt: &GroundTruth, a: u32, b: u32) -> bool {
         return true;
     }
     match (gt.faces.get(a as usize), gt.faces.get(b as usize)) {
-        (Some(fa), Some(fb)) => {
-            dot(fa.normal, fb.normal).abs() >= SIDE_ANGLE_DEG.to_radians().cos()
-        }
+        (Some(fa), Some(fb)) => within_side_angle(dot(fa.normal, fb.normal).abs()),
         _ => false,
     }
 }

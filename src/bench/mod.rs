@@ -872,21 +872,16 @@ fn score_case(
     r.edges = Some(edges);
     // Rectification, over the abnormal zones of the required stretches: a scan that sees one
     // face of an edge gives no tool the means to rectify its rounding.
-    let zone_truth = zone_of_required(gt, truth, &required);
-    let (zones, left_out) = match &zone_truth {
-        Some((z, n)) => (z.as_slice(), *n),
-        None => (truth, 0),
-    };
-    let mut rect = rectify_metrics(
+    let (abnormal, unseen) = scored_abnormal(gt, truth, &required);
+    let rect = rectify_metrics(
         &out.cloud.positions,
         &out.rectified,
         &out.moved,
-        zones,
+        (&abnormal, unseen),
         &away_mask(truth, gt, r.params.noise, h),
         h,
         |p| gt.distance_to_surface(p),
     );
-    rect.abnormal_unseen = left_out;
     r.rectify = Some(rect);
     if let Some(o) = &oracle {
         r.oracle_margin_h = Some(o.margin / h);
@@ -895,17 +890,18 @@ fn score_case(
     Ok(())
 }
 
-/// When some true edge length is not required: a copy of `truth` whose abnormal points
+/// The abnormal points rectification is scored on (abnormal and no outlier), and how many
+/// abnormal points are left out of it: when some true edge length is not required, those
 /// farther from every required stretch than the widest abnormal zone (rounding's tangent
-/// distance, extra-noise band) are no longer abnormal, and how many they are. `None` when the
-/// scan sees every edge whole (the truth as it is).
-fn zone_of_required(
+/// distance, extra-noise band).
+fn scored_abnormal(
     gt: &GroundTruth,
     truth: &[PointTruth],
     required: &Stretches,
-) -> Option<(Vec<PointTruth>, usize)> {
+) -> (Vec<bool>, usize) {
+    let scored = |t: &PointTruth| t.abnormal && !t.outlier;
     if required.unseen_length == 0.0 {
-        return None;
+        return (truth.iter().map(scored).collect(), 0);
     }
     let h = gt.spacing;
     let widest = gt
@@ -917,18 +913,17 @@ fn zone_of_required(
         + EDGE_TOL * h;
     let near = SegmentSet::new(required.segments.clone(), widest);
     let mut left_out = 0;
-    let zones = truth
+    let mask = truth
         .iter()
         .map(|t| {
-            let mut t = *t;
             if t.abnormal && near.nearest_within(t.surface).is_none() {
-                t.abnormal = false;
                 left_out += 1;
+                return false;
             }
-            t
+            scored(t)
         })
         .collect();
-    Some((zones, left_out))
+    (mask, left_out)
 }
 
 fn ratio(a: Option<f64>, b: Option<f64>) -> Option<f64> {
@@ -1245,20 +1240,19 @@ pub fn away_mask(truth: &[PointTruth], gt: &GroundTruth, noise: f64, h: f64) -> 
 /// (`positions`) and after (`rectified`), and the points marked `away` from edges (see
 /// [`away_mask`]) that changed at all.
 /// Distances are computed in parallel and summed in point order (the same total for any
-/// thread count).
+/// thread count). `abnormal` is the mask of the abnormal points scored, with the count of
+/// those left out of it.
 #[allow(clippy::too_many_arguments)]
 pub fn rectify_metrics(
     positions: &[V3],
     rectified: &[V3],
     moved: &[bool],
-    truth: &[PointTruth],
+    (abnormal, unseen): (&[bool], usize),
     away: &[bool],
     h: f64,
     distance_to_surface: impl Fn(V3) -> f64 + Sync,
 ) -> RectifyMetrics {
-    let abnormal: Vec<usize> = (0..truth.len())
-        .filter(|&i| truth[i].abnormal && !truth[i].outlier)
-        .collect();
+    let abnormal: Vec<usize> = (0..abnormal.len()).filter(|&i| abnormal[i]).collect();
     let d: Vec<(f64, f64)> = abnormal
         .par_iter()
         .map(|&i| {
@@ -1272,10 +1266,10 @@ pub fn rectify_metrics(
     let m = abnormal.len() as f64;
     let before_h = (!abnormal.is_empty()).then(|| before / m / h);
     let after_h = (!abnormal.is_empty()).then(|| after / m / h);
-    let away: Vec<usize> = (0..truth.len()).filter(|&i| away[i]).collect();
+    let away: Vec<usize> = (0..away.len()).filter(|&i| away[i]).collect();
     RectifyMetrics {
         abnormal_points: abnormal.len(),
-        abnormal_unseen: 0,
+        abnormal_unseen: unseen,
         abnormal_moved: abnormal.iter().filter(|&&i| moved[i]).count(),
         before_h,
         after_h,

@@ -43,6 +43,11 @@ pub const CELL: f64 = 0.5;
 /// this angle of its face's normal.
 pub const SIDE_ANGLE_DEG: f64 = 30.0;
 
+/// Whether two lines of normals whose |cosine| is `cos_abs` lie within [`SIDE_ANGLE_DEG`].
+pub fn within_side_angle(cos_abs: f64) -> bool {
+    cos_abs >= SIDE_ANGLE_DEG.to_radians().cos()
+}
+
 /// The required stretches of the true edges.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Stretches {
@@ -76,7 +81,7 @@ fn side(gt: &GroundTruth, e: usize, face: u32) -> Option<usize> {
     // face beside a 2 h concave edge has the opposite normal of the edge's own face).
     let c = [dot(n, edge.normals[0]).abs(), dot(n, edge.normals[1]).abs()];
     let k = if c[0] >= c[1] { 0 } else { 1 };
-    (c[k] >= SIDE_ANGLE_DEG.to_radians().cos()).then_some(k)
+    within_side_angle(c[k]).then_some(k)
 }
 
 /// Whether each true corner of `gt` is required (see the module comment): every edge meeting

@@ -332,9 +332,16 @@ fn rectification_of_hand_made_points() {
         .iter()
         .map(|t| !t.abnormal && !t.outlier && t.edge_distance > AWAY * h)
         .collect();
-    let m = rectify_metrics(&positions, &rectified, &moved, &truth, &away, h, |p| {
-        p[2].abs()
-    });
+    let abnormal: Vec<bool> = truth.iter().map(|t| t.abnormal && !t.outlier).collect();
+    let m = rectify_metrics(
+        &positions,
+        &rectified,
+        &moved,
+        (&abnormal, 0),
+        &away,
+        h,
+        |p| p[2].abs(),
+    );
     assert_eq!((m.abnormal_points, m.abnormal_moved), (2, 2));
     assert!((m.before_h.unwrap() - 1.0).abs() < 1e-15);
     assert!((m.after_h.unwrap() - 0.1).abs() < 1e-15);
