@@ -25,6 +25,26 @@ fn read_json(path: &Path) -> Value {
     serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
 }
 
+/// Runs `sharpedge bench ARGS --out JSON` in `dir`, asserts it succeeded, and returns its
+/// stdout and the JSON it wrote.
+fn bench_ok(args: &[&str], dir: &Path, json: &str) -> (String, Value) {
+    let mut all = args.to_vec();
+    all.extend(["--out", json]);
+    let (ok, out, err) = bench(&all, dir);
+    assert!(ok, "{err}");
+    (out, read_json(&dir.join(json)))
+}
+
+/// The names of a case's checks.
+fn check_names(c: &Value) -> Vec<&str> {
+    c["checks"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|k| k["name"].as_str().unwrap())
+        .collect()
+}
+
 fn f(v: &Value) -> f64 {
     v.as_f64().unwrap_or_else(|| panic!("{v} is not a number"))
 }
@@ -37,20 +57,11 @@ fn share_or_null(v: &Value) {
 #[test]
 fn tiny_box_suite_writes_sane_json_and_a_table() {
     let dir = tempfile::tempdir().unwrap();
-    let (ok, out, err) = bench(
-        &[
-            "--cases",
-            "box",
-            "--points",
-            "20000",
-            "--threads",
-            "2",
-            "--out",
-            "b.json",
-        ],
+    let (out, j) = bench_ok(
+        &["--cases", "box", "--points", "20000", "--threads", "2"],
         dir.path(),
+        "b.json",
     );
-    assert!(ok, "{err}");
     assert!(
         out.contains("bench: 20000 points per case, seed 1, 2 threads"),
         "{out}"
@@ -58,7 +69,6 @@ fn tiny_box_suite_writes_sane_json_and_a_table() {
     assert!(out.lines().any(|l| l.starts_with("box ")), "{out}");
     assert!(out.contains("wrote b.json"), "{out}");
 
-    let j = read_json(&dir.path().join("b.json"));
     for key in [
         "sharpedge",
         "points",
@@ -150,7 +160,7 @@ fn tiny_box_suite_writes_sane_json_and_a_table() {
     assert!((f(&c["oracle_margin_h"]) - 4.5).abs() < 1e-9);
 
     let checks = c["checks"].as_array().unwrap();
-    let names: Vec<&str> = checks.iter().map(|k| k["name"].as_str().unwrap()).collect();
+    let names = check_names(c);
     for want in [
         "corner recall",
         "corner precision",
@@ -301,12 +311,7 @@ fn mesh_cases_run_or_are_skipped_with_a_note() {
     assert_eq!(c["corners"]["true"], 23);
     assert!(c["edges"]["oracle_rms_h"].is_null());
     assert!(c["corners"]["oracle_h"].is_null());
-    let names: Vec<&str> = c["checks"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|k| k["name"].as_str().unwrap())
-        .collect();
+    let names = check_names(c);
     assert!(names.contains(&"edge recall") && !names.contains(&"corner recall"));
 }
 
@@ -322,20 +327,12 @@ fn the_pipeline_file_is_read_and_its_errors_name_it() {
     assert!(err.contains("bad.toml:2: bogus: unknown field"), "{err}");
 
     std::fs::write(dir.path().join("good.toml"), "seed = 3\n").unwrap();
-    let (ok, out, err) = bench(
-        &[
-            "--cases",
-            "box-30k",
-            "--config",
-            "good.toml",
-            "--out",
-            "g.json",
-        ],
+    let (out, j) = bench_ok(
+        &["--cases", "box-30k", "--config", "good.toml"],
         dir.path(),
+        "g.json",
     );
-    assert!(ok, "{err}");
     assert!(out.contains("config good.toml"), "{out}");
-    let j = read_json(&dir.path().join("g.json"));
     assert_eq!(j["config"], "good.toml");
     assert_eq!(j["settings"]["seed"], 3);
     assert_eq!(j["cases"][0]["points"].as_u64().unwrap() / 1000, 29);
@@ -419,7 +416,7 @@ fn issue4_cad_models_pass_every_threshold() {
 #[test]
 fn three_random_parts_report_their_draws_a_summary_and_reproduce_alone() {
     let dir = tempfile::tempdir().unwrap();
-    let (ok, out, err) = bench(
+    let (out, j) = bench_ok(
         &[
             "--random",
             "3",
@@ -429,12 +426,10 @@ fn three_random_parts_report_their_draws_a_summary_and_reproduce_alone() {
             "2",
             "--threads",
             "2",
-            "--out",
-            "r.json",
         ],
         dir.path(),
+        "r.json",
     );
-    assert!(ok, "{err}");
     assert!(
         out.contains("bench: 3 random parts, 30000..30000 points, seed 2"),
         "{out}"
@@ -443,7 +438,6 @@ fn three_random_parts_report_their_draws_a_summary_and_reproduce_alone() {
         out.contains("summary over 3 random cases (3 scored)"),
         "{out}"
     );
-    let j = read_json(&dir.path().join("r.json"));
     let cases = j["cases"].as_array().unwrap();
     assert_eq!(cases.len(), 3);
     let mut seeds = Vec::new();
@@ -462,12 +456,7 @@ fn three_random_parts_report_their_draws_a_summary_and_reproduce_alone() {
         // Every part has corners and edges to find; the whole part is seen.
         assert!(c["corners"]["true"].as_u64().unwrap() >= 8);
         assert_eq!(f(&c["edges"]["unseen_length_h"]), 0.0);
-        let names: Vec<&str> = c["checks"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .map(|k| k["name"].as_str().unwrap())
-            .collect();
+        let names = check_names(c);
         for want in [
             "corner recall",
             "corner precision",
@@ -548,12 +537,7 @@ fn assert_scored_shares(c: &Value) {
         share_or_null(&c["corners"][k]);
         share_or_null(&c["edges"][k]);
     }
-    let names: Vec<&str> = c["checks"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|k| k["name"].as_str().unwrap())
-        .collect();
+    let names = check_names(c);
     for n in [
         "corner recall",
         "corner precision",
@@ -567,19 +551,11 @@ fn assert_scored_shares(c: &Value) {
 #[test]
 fn patterns_mode_scores_every_part_under_every_pattern() {
     let dir = tempfile::tempdir().unwrap();
-    let (ok, out, err) = bench(
-        &[
-            "--patterns",
-            "--points",
-            "20000",
-            "--threads",
-            "2",
-            "--out",
-            "p.json",
-        ],
+    let (out, j) = bench_ok(
+        &["--patterns", "--points", "20000", "--threads", "2"],
         dir.path(),
+        "p.json",
     );
-    assert!(ok, "{err}");
     assert!(
         out.contains("bench: sampling patterns, 20000 points per case"),
         "{out}"
@@ -600,7 +576,6 @@ fn patterns_mode_scores_every_part_under_every_pattern() {
             "{out}"
         );
     }
-    let j = read_json(&dir.path().join("p.json"));
     assert_eq!(j["mode"], "patterns");
     let cases = j["cases"].as_array().unwrap();
     assert_eq!(cases.len(), 21);
@@ -618,12 +593,7 @@ fn patterns_mode_scores_every_part_under_every_pattern() {
             assert!(f(&b["found_on_border_h"]) >= 0.0, "{name}: {b}");
             assert!(c["corners"]["unseen"].as_u64().unwrap() > 0, "{name}");
             assert!(f(&c["edges"]["unseen_length_h"]) > 0.0, "{name}");
-            let names: Vec<&str> = c["checks"]
-                .as_array()
-                .unwrap()
-                .iter()
-                .map(|k| k["name"].as_str().unwrap())
-                .collect();
+            let names = check_names(c);
             assert!(
                 names.contains(&"found edge on scan borders (h)"),
                 "{names:?}"
@@ -642,18 +612,21 @@ fn patterns_mode_scores_every_part_under_every_pattern() {
     }
 }
 
+/// The CAD check's cases in their order: each mesh with its facets, then subdivided.
+const CAD_CASES: [&str; 6] = [
+    "fandisk-s0",
+    "fandisk-s2",
+    "anchor-s0",
+    "anchor-s2",
+    "joint-s0",
+    "joint-s2",
+];
+
 #[test]
 fn cad_mode_runs_each_mesh_twice_or_skips_with_a_note() {
     let dir = tempfile::tempdir().unwrap();
     let out = bench_without_data(&["--cad"], dir.path());
-    for name in [
-        "fandisk-s0",
-        "fandisk-s2",
-        "anchor-s0",
-        "anchor-s2",
-        "joint-s0",
-        "joint-s2",
-    ] {
+    for name in CAD_CASES {
         assert!(out.contains(&format!("skipped {name}: ")), "{out}");
     }
     assert!(out.contains("joint.off not found"), "{out}");
@@ -666,7 +639,7 @@ fn cad_mode_runs_each_mesh_twice_or_skips_with_a_note() {
         eprintln!("skipped: ../shared/data absent");
         return;
     }
-    let (ok, out, err) = bench(
+    let (out, j) = bench_ok(
         &[
             "--cad",
             "--points",
@@ -675,31 +648,18 @@ fn cad_mode_runs_each_mesh_twice_or_skips_with_a_note() {
             "2",
             "--data",
             data.to_str().unwrap(),
-            "--out",
-            "c.json",
         ],
         dir.path(),
+        "c.json",
     );
-    assert!(ok, "{err}");
     assert!(
         out.contains("bench: CAD meshes, 20000 points per case"),
         "{out}"
     );
-    let j = read_json(&dir.path().join("c.json"));
     assert_eq!(j["mode"], "cad");
     let cases = j["cases"].as_array().unwrap();
     let names: Vec<&str> = cases.iter().map(|c| c["name"].as_str().unwrap()).collect();
-    assert_eq!(
-        names,
-        [
-            "fandisk-s0",
-            "fandisk-s2",
-            "anchor-s0",
-            "anchor-s2",
-            "joint-s0",
-            "joint-s2"
-        ]
-    );
+    assert_eq!(names, CAD_CASES);
     for c in cases {
         assert_eq!(c["kind"], "cad");
         assert_scored_shares(c);

@@ -6,14 +6,14 @@
 
 mod run_common;
 
-use run_common::{config, sharpedge, synth};
+use run_common::{Case, report, synth};
 
 /// Runs the default pipeline on the box scanned in lines `gap` along-line spacings apart and
 /// returns (found edges, corner errors to the nearest true corner, the line gap) in model units.
 fn lines_box(gap: &str, points: &str) -> (usize, Vec<f64>, f64) {
-    let dir = tempfile::tempdir().unwrap();
+    let c = Case::new();
     let cloud = synth(
-        dir.path(),
+        c.path(),
         "lines.ply",
         &[
             "--part",
@@ -30,25 +30,10 @@ fn lines_box(gap: &str, points: &str) -> (usize, Vec<f64>, f64) {
             "11",
         ],
     );
-    config(dir.path(), "");
-    sharpedge(
-        dir.path(),
-        &[
-            "-q",
-            "run",
-            "pipeline.toml",
-            "--input",
-            cloud.to_str().unwrap(),
-            "--out",
-            "out",
-        ],
-    )
-    .assert_ok();
-    let read = |p: std::path::PathBuf| -> serde_json::Value {
-        serde_json::from_slice(&std::fs::read(p).unwrap()).unwrap()
-    };
-    let report = read(dir.path().join("out/report.json"));
-    let truth = read(dir.path().join("lines.truth.json"));
+    c.run(cloud.to_str().unwrap(), &["-q"]).assert_ok();
+    let report = report(&c.out());
+    let truth: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(c.path().join("lines.truth.json")).unwrap()).unwrap();
     let pos = |v: &serde_json::Value| -> Vec<f64> {
         v["position"]
             .as_array()

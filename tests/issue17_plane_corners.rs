@@ -10,6 +10,7 @@
 //! smooth sphere.
 
 use sharpedge::config::Settings;
+use sharpedge::geometry::dist;
 use sharpedge::outcome::Outcome;
 use sharpedge::pipeline::{NoClock, process};
 use sharpedge::synth::{GroundTruth, Part, Sampling, SynthParams, generate};
@@ -27,10 +28,6 @@ fn run(part: Part, points: usize, noise: f64, seed: u64) -> (Outcome, GroundTrut
     let s = generate(&params).unwrap();
     let out = process(s.cloud, &Settings::default(), &mut NoClock).unwrap();
     (out, s.ground_truth)
-}
-
-fn dist(a: [f64; 3], b: [f64; 3]) -> f64 {
-    (0..3).map(|k| (a[k] - b[k]).powi(2)).sum::<f64>().sqrt()
 }
 
 #[test]
