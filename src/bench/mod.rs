@@ -941,13 +941,8 @@ pub fn corner_metrics(
     oracle: Option<&[Option<V3>]>,
     h: f64,
 ) -> CornerMetrics {
-    corner_metrics_on(
-        found,
-        true_corners,
-        &vec![true; true_corners.len()],
-        oracle,
-        h,
-    )
+    // An empty `required` requires every corner.
+    corner_metrics_on(found, true_corners, &[], oracle, h)
 }
 
 /// Corner metrics against the `required` true corners (module [`seen`]). Found corners are
