@@ -251,10 +251,10 @@ pub fn plane_edge(id: usize, edge: &FaceEdge, convexity: &Convexity) -> EdgeOut 
 pub fn link_corners(edges: &[EdgeOut], corners: &mut [CornerOut]) {
     for e in edges {
         for c in e.corners.iter().flatten() {
-            if let Some(c) = corners.get_mut(*c) {
-                if !c.edges.contains(&e.id) {
-                    c.edges.push(e.id);
-                }
+            if let Some(c) = corners.get_mut(*c)
+                && !c.edges.contains(&e.id)
+            {
+                c.edges.push(e.id);
             }
         }
     }

@@ -45,17 +45,17 @@ fn is_short_read(e: &las::Error) -> bool {
 
 fn las_error(path: &Path, place: impl Into<String>, in_header: bool, e: las::Error) -> Error {
     // A failing disk is an I/O error of the file; a short or garbled file is malformed.
-    if let las::Error::Io(io) = &e {
-        if !matches!(
+    if let las::Error::Io(io) = &e
+        && !matches!(
             io.kind(),
             std::io::ErrorKind::UnexpectedEof | std::io::ErrorKind::InvalidData
-        ) {
-            return Error::io(
-                path,
-                "cannot read",
-                std::io::Error::new(io.kind(), io.to_string()),
-            );
-        }
+        )
+    {
+        return Error::io(
+            path,
+            "cannot read",
+            std::io::Error::new(io.kind(), io.to_string()),
+        );
     }
     let what = match (is_short_read(&e), in_header) {
         (true, true) => "the file ends inside its header, records or LAZ chunk table: it is \

@@ -270,16 +270,16 @@ fn folds(positions: &[[f64; 3]], ids: &[u32], origin: [f64; 3], plane: &Plane) -
                 (-dot(p.normal, axis)).atan2(up.abs()) * up.signum()
             })
         };
-        if let (Some(a), Some(b)) = (slope(&halves[0]), slope(&halves[1])) {
-            if (a - b).abs() > FOLD_DEGREES.to_radians() {
-                tracing::trace!(
-                    "fold {:.2} deg, {} points, width {:.1} h",
-                    (a - b).abs().to_degrees(),
-                    ids.len(),
-                    width / plane.spacing
-                );
-                return true;
-            }
+        if let (Some(a), Some(b)) = (slope(&halves[0]), slope(&halves[1]))
+            && (a - b).abs() > FOLD_DEGREES.to_radians()
+        {
+            tracing::trace!(
+                "fold {:.2} deg, {} points, width {:.1} h",
+                (a - b).abs().to_degrees(),
+                ids.len(),
+                width / plane.spacing
+            );
+            return true;
         }
     }
     false

@@ -262,14 +262,14 @@ pub fn validate(p: &SynthParams) -> Result<()> {
             ))
         }
     };
-    if let Some(size) = p.size {
-        if !(size.is_finite() && size > 0.0) {
-            return Err(bad(
-                "size",
-                size,
-                "must be a finite number > 0 (model units)",
-            ));
-        }
+    if let Some(size) = p.size
+        && !(size.is_finite() && size > 0.0)
+    {
+        return Err(bad(
+            "size",
+            size,
+            "must be a finite number > 0 (model units)",
+        ));
     }
     match p.sampling {
         Sampling::Points(0) => return Err(bad("points", 0, "must be at least 1")),

@@ -188,10 +188,10 @@ pub struct Keep<'a> {
 
 impl Keep<'_> {
     fn keeps(&self, smp: &Sample) -> bool {
-        if let Some(d) = self.density {
-            if two_uniforms(mix(smp.key ^ TAG_KEEP)).0 >= d.keep(smp.p) {
-                return false;
-            }
+        if let Some(d) = self.density
+            && two_uniforms(mix(smp.key ^ TAG_KEEP)).0 >= d.keep(smp.p)
+        {
+            return false;
         }
         if let Some((caster, tol)) = self.sight {
             let Some(view) = self.scanner.sensor_for(smp.view) else {
@@ -548,10 +548,11 @@ fn finish_sample(
             nearest = (d, e);
         }
         let fe = &fil.edges[e as usize];
-        if d < fe.td && pick.is_none_or(|(bd, _, _)| d < bd) {
-            if let Some(k) = side_of(model, e as usize, p, n, s.eps) {
-                pick = Some((d, e as usize, k));
-            }
+        if d < fe.td
+            && pick.is_none_or(|(bd, _, _)| d < bd)
+            && let Some(k) = side_of(model, e as usize, p, n, s.eps)
+        {
+            pick = Some((d, e as usize, k));
         }
     }
     let moved = pick.and_then(|(_, e, k)| round(model, fil, e, k, p));

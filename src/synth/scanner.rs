@@ -240,14 +240,14 @@ impl ScanPattern {
             ("line_direction", self.line_direction),
             ("density_direction", self.density_direction),
         ] {
-            if let Some(d) = d {
-                if unit(d).is_none() {
-                    return Err(bad(
-                        name,
-                        format!("{d:?}"),
-                        "must be a finite non-zero vector",
-                    ));
-                }
+            if let Some(d) = d
+                && unit(d).is_none()
+            {
+                return Err(bad(
+                    name,
+                    format!("{d:?}"),
+                    "must be a finite non-zero vector",
+                ));
             }
         }
         if let Some(s) = self
