@@ -466,7 +466,12 @@ fn prepare_output_dir(dir: &Path) -> Result<()> {
         ));
     }
     std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, "cannot create output folder", e))?;
-    tempfile::NamedTempFile::new_in(dir)
+    // Named like write_atomic's temporary files, so that one left by a kill in this instant
+    // is cleaned by a later run.
+    tempfile::Builder::new()
+        .prefix(".sharpedge-")
+        .suffix(".part")
+        .tempfile_in(dir)
         .map(drop)
         .map_err(|e| Error::io(dir, "cannot write into output folder", e))
 }

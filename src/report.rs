@@ -3,8 +3,9 @@
 //!
 //! Input: the pipeline's `Outcome` (cloud, per-point side arrays, fitted edges and corners),
 //! the LAS/LAZ input's header and records when there is one, the settings and the stage
-//! timings. Output: four files in the output folder, written into a staging folder there and
-//! moved into place together, so a failed run leaves none of them. The LAS/LAZ cloud and the
+//! timings. Output: four files in the output folder, written into a run folder there and
+//! published together (`io::output_set`), so a failed or killed run leaves none of them and
+//! a reader never sees files of two runs side by side. The LAS/LAZ cloud and the
 //! GeoJSON are made in `lidar_out.rs`.
 //!
 //! Field names are chosen for the viewers our users have: CloudCompare's command line loads a
@@ -100,10 +101,9 @@ pub fn write_all(
         encoding: settings.output.encoding,
         precision,
     };
-    // Each file is atomic on its own, but the four are one result: a run that fails on the
-    // second must not leave the first beside an older second. So all are written into a
-    // staging folder inside `dir` (same file system: renames are atomic) and moved into place
-    // only when all exist, after checking that nothing can stop the renames.
+    // Each file is atomic on its own, but the four are one result: a run that fails or is
+    // killed on the second must not leave the first beside an older second. So all are
+    // written into a run folder inside `dir` and published together (io::output_set).
     let format = settings.output.format.resolve(&outcome.cloud.source.path)?;
     let rectified_name = format!("rectified.{}", format.extension());
     let names = [
@@ -112,30 +112,9 @@ pub fn write_all(
         "edges.geojson",
         "report.json",
     ];
-    for name in names {
-        let to = dir.join(name);
-        if std::fs::symlink_metadata(&to).is_ok_and(|m| m.is_dir()) {
-            return Err(Error::io(
-                &to,
-                "cannot write this output",
-                std::io::Error::other(
-                    "a folder of that name is in the way; move it or choose another output folder",
-                ),
-            ));
-        }
-    }
-    let staging = tempfile::Builder::new()
-        .prefix(".sharpedge-run-")
-        .tempdir_in(dir)
-        .map_err(|e| {
-            Error::io(
-                dir,
-                "cannot create a temporary folder in the output folder (is it writable?)",
-                e,
-            )
-        })?;
-    let staged: Vec<PathBuf> = names.iter().map(|n| staging.path().join(n)).collect();
-    let staging_dir = staging.path().to_path_buf();
+    let staging = io::output_set::stage(dir, &names)?;
+    let staged: Vec<PathBuf> = (0..names.len()).map(|i| staging.file(i)).collect();
+    let staging_dir = staging.run_dir().to_path_buf();
     let named = |i: usize| {
         let to = dir.join(names[i]);
         let st = staging_dir.clone();
@@ -167,24 +146,7 @@ pub fn write_all(
     crate::lidar_out::write_edges(&staged[2], outcome, lidar.and_then(io::Lidar::crs).as_ref())
         .map_err(named(2))?;
     write_report(&staged[3], outcome, settings, timings).map_err(named(3))?;
-    let mut placed: Vec<PathBuf> = Vec::new();
-    for (from, name) in staged.iter().zip(names) {
-        let to = dir.join(name);
-        if let Err(e) = std::fs::rename(from, &to) {
-            // Only a race can get here (checked above). Take back what this run already
-            // placed: no output beats a mixed one.
-            for p in &placed {
-                let _ = std::fs::remove_file(p);
-            }
-            return Err(Error::io(
-                &to,
-                "cannot move the finished output to this name; no output was written",
-                e,
-            ));
-        }
-        placed.push(to);
-    }
-    Ok(placed)
+    staging.publish()
 }
 
 /// Double coordinates when the input had them, or when float's step at the cloud's magnitude

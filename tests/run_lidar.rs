@@ -296,6 +296,8 @@ fn las14_format7_with_extra_bytes_crs_and_evlrs_round_trips() {
     assert_eq!(
         entries(&c.out()),
         [
+            ".sharpedge-current",
+            ".sharpedge-run-*",
             "edges.geojson",
             "features.ply",
             "rectified.las",

@@ -169,6 +169,8 @@ fn run_on_every_file_succeeds_or_fails_cleanly() {
                 assert_eq!(
                     entries(&out),
                     [
+                        ".sharpedge-current",
+                        ".sharpedge-run-*",
                         "edges.geojson",
                         "features.ply",
                         rectified.as_str(),

@@ -24,6 +24,7 @@ mod crs;
 mod geojson;
 mod las;
 mod las_write;
+pub mod output_set;
 mod ply;
 mod xyz;
 
@@ -451,13 +452,19 @@ fn temp_beside(path: &Path) -> Result<tempfile::NamedTempFile> {
         use std::os::unix::fs::PermissionsExt;
         builder.permissions(std::fs::Permissions::from_mode(0o644));
     }
-    builder.tempfile_in(dir).map_err(|e| {
+    let tmp = builder.tempfile_in(dir).map_err(|e| {
         Error::io(
             path,
             "cannot create a temporary file in the output folder (does it exist, is it writable?)",
             e,
         )
-    })
+    })?;
+    // Held while the file is written, so that another run cleaning the folder
+    // (`output_set::clean_stale`) tells a live writer's file from a killed one's; the kernel
+    // releases it when this process ends, however. A file system without locks only means
+    // such files are never taken for stale.
+    let _ = tmp.as_file().try_lock();
+    Ok(tmp)
 }
 
 /// Renames a finished temporary file onto `path`.

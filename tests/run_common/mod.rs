@@ -107,8 +107,11 @@ pub const LBLOCK: &[&str] = &[
     "--seed", "3",
 ];
 
-/// What a run on a PLY (or XYZ) input writes, sorted.
-pub const PLY_OUTPUTS: [&str; 4] = [
+/// What a run on a PLY (or XYZ) input writes, sorted: the link naming the published run
+/// folder, that folder (as [`entries`] lists it), and the four outputs linked into it.
+pub const PLY_OUTPUTS: [&str; 6] = [
+    ".sharpedge-current",
+    ".sharpedge-run-*",
     "edges.geojson",
     "features.ply",
     "rectified.ply",
@@ -123,12 +126,19 @@ pub fn config(dir: &Path, text: &str) -> PathBuf {
 }
 
 /// Names of the entries of a folder (hidden ones too), sorted; empty when it does not exist.
+/// A run folder `.sharpedge-run-XXXXXX` is listed as `.sharpedge-run-*`.
 pub fn entries(dir: &Path) -> Vec<String> {
     let Ok(rd) = std::fs::read_dir(dir) else {
         return Vec::new();
     };
     let mut v: Vec<String> = rd
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .map(|e| {
+            let name = e.unwrap().file_name().to_string_lossy().into_owned();
+            match name.strip_prefix(".sharpedge-run-") {
+                Some(rest) if !rest.contains('.') => ".sharpedge-run-*".to_string(),
+                _ => name,
+            }
+        })
         .collect();
     v.sort();
     v
