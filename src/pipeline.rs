@@ -150,6 +150,7 @@ pub fn process(cloud: Cloud, settings: &Settings, clock: &mut impl LapClock) -> 
             }
         })?;
     check_not_collinear(&cloud, spacing)?;
+    check_given_lengths(&cloud, &settings.features)?;
     let local = scale::local_scale_in(
         &tree,
         &cloud.positions,
@@ -398,6 +399,35 @@ fn check_cloud(cloud: &Cloud) -> Result<()> {
 
 /// Rejects a cloud whose points all lie on one straight line: no surface, so no edge, and
 /// the scale estimate would fail later with a message about density that misleads.
+/// A radius or noise given in the config must fit the cloud: one larger than the cloud's
+/// bounding box would make every neighbourhood the whole cloud (quadratic time), and one past
+/// f32's range cannot be stored per point.
+fn check_given_lengths(cloud: &Cloud, f: &features::FeatureParams) -> Result<()> {
+    let (lo, hi) = crate::geometry::bounds(&cloud.positions);
+    let diagonal = crate::geometry::dist(lo, hi);
+    for (key, value) in [("features.radius", f.radius), ("features.noise", f.noise)] {
+        if let Some(v) = value
+            && v > diagonal
+        {
+            // 1e308 as written, not as 309 digits.
+            let v = if v >= 1e15 {
+                format!("{v:e}")
+            } else {
+                v.to_string()
+            };
+            return Err(Error::Usage {
+                option: key.into(),
+                message: format!(
+                    "{v} is larger than the whole cloud ({}: bounding box diagonal {diagonal:.6}); \
+                     give a length of a few point spacings, or \"auto\"",
+                    cloud.source.path.display()
+                ),
+            });
+        }
+    }
+    Ok(())
+}
+
 /// "On the line" means within a thousandth of the spacing of the principal axis (total least
 /// squares line through the centroid), far above f32 rounding of stored coordinates and far
 /// below the width of any scanned strip.

@@ -354,7 +354,14 @@ pub fn generate(params: &SynthParams) -> Result<Scan> {
     match &params.part {
         Part::Mesh(path) => {
             let mesh = read_mesh(path)?;
-            scan_mesh(params, mesh, Origin::File)
+            // A mesh that reads but cannot be scanned (no area, ...) is named like a bad file.
+            scan_mesh(params, mesh, Origin::File).map_err(|e| match e {
+                Error::Degenerate { .. } => Error::BadCloud {
+                    path: path.clone(),
+                    what: e.to_string(),
+                },
+                e => e,
+            })
         }
         Part::Sphere if !params.scan.is_default() => Err(bad(
             "pattern",
