@@ -274,3 +274,35 @@ fn identical_points_are_described() {
         r.stdout
     );
 }
+
+#[test]
+fn a_far_outlier_leaves_the_part_measured_and_its_edges_found() {
+    // One point 1e12 away from a 100-unit part: the k-d tree's f32 coordinates held the part
+    // in a few float steps (info read every point per query; run failed to measure the
+    // spacing), and the grid's radius and ray queries walked 2^21 cells a side.
+    let c = Case::new();
+    let scan = synth(c.path(), "box.ply", SMALL_BOX);
+    let mut pts = read_cloud(&scan).positions;
+    let unit = run_ok(&c, "box.ply", "unit");
+    let unit_spacing = info_json(c.path(), "box.ply")["mean_spacing"]
+        .as_f64()
+        .unwrap();
+    pts.push([1e12, 1e12, 1e12]);
+    write_raw_ply(&c.path().join("far.ply"), &pts);
+    // The outlier is no sample of the spacing (the tree's other frame rounds differently).
+    let spacing = info_json(c.path(), "far.ply")["mean_spacing"]
+        .as_f64()
+        .unwrap();
+    assert!(
+        (spacing - unit_spacing).abs() < 1e-6 * unit_spacing,
+        "{spacing} vs {unit_spacing}"
+    );
+    let rep = run_ok(&c, "far.ply", "far");
+    assert_eq!(rep["edges"].as_array().unwrap().len(), 12);
+    let (got, want) = (corners_scaled(&rep, 1.0), corners_scaled(&unit, 1.0));
+    assert_eq!(got.len(), want.len());
+    for (g, w) in got.iter().zip(&want) {
+        let d = (0..3).map(|k| (g[k] - w[k]).powi(2)).sum::<f64>().sqrt();
+        assert!(d < 0.05, "corner {g:?} vs {w:?}");
+    }
+}
