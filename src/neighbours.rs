@@ -3,7 +3,7 @@
 //!
 //! Inputs: positions (f64, any magnitude). Outputs: `Grid` (points bucketed by cell, in a
 //! cache-friendly spatial order, coordinates local to the grid's origin), `Knn` (flat arrays of
-//! k neighbour ids per point), `mean_spacing`.
+//! k neighbour ids per point), `Distinct` (exact duplicates collapsed), `mean_spacing`.
 //!
 //! Why two structures: the features stage needs *radius* neighbourhoods whose size follows the
 //! measured noise (a fixed k is swamped by noise, see CRATES.md). On this machine, for a
@@ -195,12 +195,9 @@ impl Grid {
         &self.ids[slots]
     }
 
-    /// Every occupied cell in slot order, with the slot ranges of the 27 cells around it:
-    /// all the queries from one cell's points look at the same cells, and finding them once
-    /// per cell instead of once per query took the features stage of a 1,000,000-point box
-    /// from 1.05 s to 0.79 s on 2 threads.
-    pub fn blocks(&self) -> Vec<Block> {
-        let cells: Vec<(u64, usize, usize)> = match &self.layout {
+    /// The occupied cells in key order: (key, first slot, end slot).
+    fn occupied(&self) -> Vec<(u64, usize, usize)> {
+        match &self.layout {
             Layout::Dense { starts } => (0..starts.len() - 1)
                 .filter(|&c| starts[c] < starts[c + 1])
                 .map(|c| (c as u64, starts[c] as usize, starts[c + 1] as usize))
@@ -208,15 +205,33 @@ impl Grid {
             Layout::Sparse { keys, starts, .. } => (0..keys.len())
                 .map(|i| (keys[i], starts[i] as usize, starts[i + 1] as usize))
                 .collect(),
-        };
-        cells
+        }
+    }
+
+    /// Number of cells the layout stores (all cells when dense, the occupied ones when
+    /// sparse): what [`Self::occupied`] walks through.
+    fn stored_cells(&self) -> usize {
+        match &self.layout {
+            Layout::Dense { starts } => starts.len() - 1,
+            Layout::Sparse { keys, .. } => keys.len(),
+        }
+    }
+
+    /// The cell coordinates of a key.
+    fn cell_of_key(&self, key: u64) -> [u64; 3] {
+        let (d0, d1) = (self.dims[0], self.dims[1]);
+        [key % d0, (key / d0) % d1, key / (d0 * d1)]
+    }
+
+    /// Every occupied cell in slot order, with the slot ranges of the 27 cells around it:
+    /// all the queries from one cell's points look at the same cells, and finding them once
+    /// per cell instead of once per query took the features stage of a 1,000,000-point box
+    /// from 1.05 s to 0.79 s on 2 threads.
+    pub fn blocks(&self) -> Vec<Block> {
+        self.occupied()
             .par_iter()
             .map(|&(key, a, b)| {
-                let c = [
-                    (key % self.dims[0]) as i64,
-                    ((key / self.dims[0]) % self.dims[1]) as i64,
-                    (key / (self.dims[0] * self.dims[1])) as i64,
-                ];
+                let c = self.cell_of_key(key).map(|c| c as i64);
                 let (x0, x1) = ((c[0] - 1).max(0), (c[0] + 1).min(self.dims[0] as i64 - 1));
                 let mut rows = [(0u32, 0u32); 9];
                 let mut nrows = 0;
@@ -295,23 +310,36 @@ impl Grid {
             q[2] - self.origin[2],
         ];
         let r2 = r * r;
+        // `as` saturates: an infinite radius spans the whole grid.
         let span = if r <= self.cell * (1.0 + 1e-12) {
             1
         } else {
             (r / self.cell).ceil() as i64
         };
         let c = [0, 1, 2].map(|k| (ql[k] / self.cell).floor() as i64);
-        let (x0, x1) = (
-            (c[0] - span).max(0),
-            (c[0] + span).min(self.dims[0] as i64 - 1),
-        );
-        if x0 > x1 {
+        let lo = [0, 1, 2].map(|k| c[k].saturating_sub(span).max(0));
+        let hi = [0, 1, 2].map(|k| c[k].saturating_add(span).min(self.dims[k] as i64 - 1));
+        if (0..3).any(|k| lo[k] > hi[k]) {
             return;
         }
-        for z in (c[2] - span).max(0)..=(c[2] + span).min(self.dims[2] as i64 - 1) {
-            for y in (c[1] - span).max(0)..=(c[1] + span).min(self.dims[1] as i64 - 1) {
+        // A radius spanning more rows than the grid stores cells (an isolated outlier
+        // measures a radius as wide as the cloud, and a cloud 1e12 wide has 2^21 cells a
+        // side): visit the occupied cells in order instead of every row. Same calls, same
+        // order (cells by key, then point id).
+        let rows = (hi[2] - lo[2] + 1) as u128 * (hi[1] - lo[1] + 1) as u128;
+        if rows > self.stored_cells() as u128 {
+            for (key, s0, s1) in self.occupied() {
+                let cell = self.cell_of_key(key);
+                if (0..3).all(|k| (lo[k]..=hi[k]).contains(&(cell[k] as i64))) {
+                    self.scan(s0..s1, ql, r2, &mut f);
+                }
+            }
+            return;
+        }
+        for z in lo[2]..=hi[2] {
+            for y in lo[1]..=hi[1] {
                 let row = (z as u64 * self.dims[1] + y as u64) * self.dims[0];
-                let (a, b) = self.slots(row + x0 as u64, row + x1 as u64);
+                let (a, b) = self.slots(row + lo[0] as u64, row + hi[0] as u64);
                 self.scan(a..b, ql, r2, &mut f);
             }
         }
@@ -339,9 +367,44 @@ impl Grid {
         let ab = [lb[0] - la[0], lb[1] - la[1], lb[2] - la[2]];
         let len2 = ab[0] * ab[0] + ab[1] * ab[1] + ab[2] * ab[2];
         let len = len2.sqrt();
+        let reach2 = reach * reach;
+        // Squared distance from a local point to the segment.
+        let dist2 = |p: [f64; 3]| {
+            let ap = [p[0] - la[0], p[1] - la[1], p[2] - la[2]];
+            let t = if len2 > 0.0 {
+                ((ap[0] * ab[0] + ap[1] * ab[1] + ap[2] * ab[2]) / len2).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+            let d = [ap[0] - t * ab[0], ap[1] - t * ab[1], ap[2] - t * ab[2]];
+            d[0] * d[0] + d[1] * d[1] + d[2] * d[2]
+        };
+        // The exact test, point by point, for the slots of the cells found.
+        let mut visit = |s0: usize, s1: usize| {
+            for s in s0..s1 {
+                if dist2(self.local[s]) <= reach2 {
+                    f(self.ids[s]);
+                }
+            }
+        };
         // Cells within `reach` of sample points half a cell apart cover the capsule.
         let steps = (2.0 * len / self.cell).ceil() as usize + 1;
         let span = (reach / self.cell).ceil() as i64 + 1;
+        // A segment crossing far more cells than the grid stores (a ray to the edge of a cloud
+        // 1e12 wide, whose cells are 2^21 a side): test the occupied cells instead, those
+        // whose centre lies within `reach` plus half a cell diagonal of the segment. Same
+        // calls in the same order (cell key order, then id).
+        let work = (steps as f64 + 1.0) * ((2 * span + 1) as f64).powi(2);
+        if work > self.stored_cells() as f64 {
+            let near = reach + self.cell * 0.87;
+            for (key, s0, s1) in self.occupied() {
+                let m = self.cell_of_key(key).map(|c| (c as f64 + 0.5) * self.cell);
+                if dist2(m).sqrt() <= near {
+                    visit(s0, s1);
+                }
+            }
+            return;
+        }
         let mut rows: Vec<(u64, i64, i64)> = Vec::new(); // (row key base, x0, x1)
         for s in 0..=steps {
             let u = if steps == 0 {
@@ -371,22 +434,9 @@ impl Grid {
                 _ => merged.push((row, x0, x1)),
             }
         }
-        let reach2 = reach * reach;
         for (row, x0, x1) in merged {
             let (s0, s1) = self.slots(row + x0 as u64, row + x1 as u64);
-            for s in s0..s1 {
-                let p = self.local[s];
-                let ap = [p[0] - la[0], p[1] - la[1], p[2] - la[2]];
-                let t = if len2 > 0.0 {
-                    ((ap[0] * ab[0] + ap[1] * ab[1] + ap[2] * ab[2]) / len2).clamp(0.0, 1.0)
-                } else {
-                    0.0
-                };
-                let d = [ap[0] - t * ab[0], ap[1] - t * ab[1], ap[2] - t * ab[2]];
-                if d[0] * d[0] + d[1] * d[1] + d[2] * d[2] <= reach2 {
-                    f(self.ids[s]);
-                }
-            }
+            visit(s0, s1);
         }
     }
 
@@ -432,9 +482,17 @@ impl Knn {
 }
 
 /// A kiddo k-d tree over f32 coordinates local to the cloud's centre (f32 steps are ~3 cm at
-/// 500 km, so absolute georeferenced coordinates must never be converted directly).
+/// 500 km, so absolute georeferenced coordinates must never be converted directly) and scaled
+/// by a power of two that brings the cloud's half extent into [1, 2): squared distances in f32
+/// underflow to 0 below ~1e-19 and overflow above ~1e19, and a tree whose distances are all 0
+/// or infinite prunes nothing (every query read every point: a box scaled by 1e-30 took
+/// `sharpedge info` past two minutes). A power of two changes no rounding, so on any cloud
+/// whose distances f32 held before, every distance is bit for bit what it was. Centre and
+/// extent are the bulk's when a few far outliers would dominate them ([`frame`]).
 pub struct KdTree {
     centre: [f64; 3],
+    /// Local units per model unit (a power of two).
+    scale: f64,
     tree: ImmutableKdTree<f32, 3>,
 }
 
@@ -454,16 +512,28 @@ impl KdTree {
                 why: "non-finite coordinates".into(),
             });
         }
-        let centre = [0, 1, 2].map(|k| 0.5 * (lo[k] + hi[k]));
+        let (centre, half) = frame(positions, lo, hi);
+        let scale = if half > 0.0 {
+            pow2(-(half.log2().floor() as i32))
+        } else {
+            1.0
+        };
+        // Far outliers are clamped where their squared distances stay finite in f32: they
+        // are then still ~10^18 bulk sizes away from everything.
+        let far = 2f64.powi(62);
         let local: Vec<[f32; 3]> = positions
             .par_iter()
-            .map(|p| [0, 1, 2].map(|k| (p[k] - centre[k]) as f32))
+            .map(|p| [0, 1, 2].map(|k| ((p[k] - centre[k]) * scale).clamp(-far, far) as f32))
             .collect();
         let tree = ImmutableKdTree::new_from_slice(&local).map_err(|e| Error::Degenerate {
             what: "k-d tree",
             why: format!("{e:?}"),
         })?;
-        Ok(KdTree { centre, tree })
+        Ok(KdTree {
+            centre,
+            scale,
+            tree,
+        })
     }
 
     /// The `k` nearest points to `q` as (id, distance), nearest first.
@@ -471,15 +541,63 @@ impl KdTree {
         let Some(k) = NonZeroUsize::new(k) else {
             return Vec::new();
         };
-        let ql = [0, 1, 2].map(|j| (q[j] - self.centre[j]) as f32);
+        let ql = [0, 1, 2].map(|j| ((q[j] - self.centre[j]) * self.scale) as f32);
         self.tree
             .query(&ql)
             .nearest_n::<SquaredEuclidean<f32>>(k)
             .execute()
             .into_iter()
-            .map(|r| (r.item, f64::from(r.distance).sqrt()))
+            .map(|r| (r.item, f64::from(r.distance).sqrt() / self.scale))
             .collect()
     }
+}
+
+/// The centre and half extent the k-d tree's local coordinates are taken in: the bounding
+/// box's, unless the bulk of the points (the 1st to 99th percentile per axis, on at most
+/// 4,096 evenly spread points) is over 1,000 times smaller than the box. Then a few far
+/// points (one outlier 1e12 away from a 100-unit part) would leave the part a few f32 steps
+/// wide, piled in a handful of leaves that every query reads (`info` took 34 s on such a
+/// 100,000-point cloud), so the bulk's centre and extent are used instead. Clouds without
+/// such outliers keep the box's, and so their distances.
+fn frame(positions: &[[f64; 3]], lo: [f64; 3], hi: [f64; 3]) -> ([f64; 3], f64) {
+    // Halves first: lo + hi overflows for coordinates beyond ±9e307.
+    let centre = [0, 1, 2].map(|k| 0.5 * lo[k] + 0.5 * hi[k]);
+    let half = (0..3)
+        .map(|k| 0.5 * hi[k] - 0.5 * lo[k])
+        .fold(0.0, f64::max);
+    let step = positions.len().div_ceil(4096).max(1);
+    let mut bulk_centre = [0.0; 3];
+    let mut bulk_half = 0.0f64;
+    for k in 0..3 {
+        let mut v: Vec<f64> = positions.iter().step_by(step).map(|p| p[k]).collect();
+        v.sort_by(f64::total_cmp);
+        let cut = v.len() / 100;
+        let (a, b) = (v[cut], v[v.len() - 1 - cut]);
+        bulk_centre[k] = 0.5 * a + 0.5 * b;
+        bulk_half = bulk_half.max(0.5 * b - 0.5 * a);
+    }
+    if bulk_half > 0.0 && half > 1000.0 * bulk_half {
+        (bulk_centre, bulk_half)
+    } else {
+        (centre, half)
+    }
+}
+
+/// A 64-bit mix of a position's coordinate bits (splitmix64's finaliser over each word in
+/// turn): different positions rarely share it, and [`Distinct::of`] does not rely on it.
+fn mix(bits: [u64; 3]) -> u64 {
+    bits.iter().fold(0x9e37_79b9_7f4a_7c15u64, |h, &w| {
+        let mut z = (h ^ w).wrapping_add(0x9e37_79b9_7f4a_7c15);
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        z ^ (z >> 31)
+    })
+}
+
+/// 2^n, with n clamped to the normal f64 exponents (a subnormal cloud gets the largest scale
+/// there is, which still brings it far above f32's smallest normal number).
+fn pow2(n: i32) -> f64 {
+    f64::from_bits(((n.clamp(-1022, 1023) + 1023) as u64) << 52)
 }
 
 /// k nearest neighbours of every point (itself excluded), in parallel. Ties at equal distance
@@ -521,18 +639,154 @@ pub fn knn(positions: &[[f64; 3]], k: usize) -> Result<Knn> {
     Ok(Knn { k, ids, dist })
 }
 
-/// Mean distance from a point to its nearest *distinct* neighbour, estimated on an evenly
-/// spread subsample of at most `max_samples` points (all points when fewer). Duplicated points
-/// do not count as neighbours. `None` when no point has a distinct neighbour (all identical, or
-/// a single point).
+/// The distinct positions of a cloud: points with exactly equal coordinates (+0 = −0) are
+/// one position, represented by the first of them.
+///
+/// Why: a scan with many copies of a point (a stuck sensor, merged tiles, an f32 file far from
+/// the origin where one float step is wider than the part) puts them all in one k-d tree leaf
+/// and one grid cell, and every query near them reads all of them: 50,000 copies of one point
+/// took `sharpedge info` 26 s and `run` 29 s. The copies say nothing a single point does not,
+/// so the stages run on the distinct positions and each copy gets its first point's result.
+/// Found by sorting (O(N log N), no hash a hostile file could make collide).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Distinct {
+    /// Id of the first point at each distinct position, ascending.
+    pub first: Vec<u32>,
+    /// Distinct index of every point; empty when no position repeats (the index is then the
+    /// point id).
+    of_point: Vec<u32>,
+}
+
+impl Distinct {
+    /// Groups `positions` (finite or not: NaN coordinates are grouped by their bits).
+    pub fn of(positions: &[[f64; 3]]) -> Result<Distinct> {
+        if positions.len() > u32::MAX as usize {
+            return Err(Error::Degenerate {
+                what: "duplicate points",
+                why: format!("{} points exceed the 2^32 limit", positions.len()),
+            });
+        }
+        // Adding +0 turns −0 into +0, so equal coordinates have equal bits.
+        let key = |p: &[f64; 3]| p.map(|c| (c + 0.0).to_bits());
+        // Sorting 16-byte (hash, id) pairs instead of the 32-byte exact keys, the whole cost
+        // on a cloud without copies, took a 1,000,000-point box from 0.059–0.073 s to
+        // 0.043–0.060 s on 2 threads of a busy machine (the k-d tree's build: 0.066–0.086 s).
+        // Equal positions have equal hashes; points with equal hashes are then sorted by
+        // their exact keys, so colliding hashes (by chance or by a hostile file) cost a sort
+        // of their run, never a comparison of all pairs.
+        let mut order: Vec<(u64, u32)> = positions
+            .par_iter()
+            .enumerate()
+            .map(|(i, p)| (mix(key(p)), i as u32))
+            .collect();
+        order.par_sort_unstable();
+        if order.windows(2).all(|w| w[0].0 != w[1].0) {
+            return Ok(Distinct {
+                first: (0..positions.len() as u32).collect(),
+                of_point: Vec::new(),
+            });
+        }
+        // Each point's first point: the lowest id of its group.
+        let mut first_of: Vec<u32> = (0..positions.len() as u32).collect();
+        for run in order.chunk_by_mut(|a, b| a.0 == b.0) {
+            if run.len() == 1 {
+                continue;
+            }
+            // Within a run, by exact key, then id: a group's first point leads it.
+            run.sort_unstable_by_key(|&(_, i)| (key(&positions[i as usize]), i));
+            for group in
+                run.chunk_by(|a, b| key(&positions[a.1 as usize]) == key(&positions[b.1 as usize]))
+            {
+                for &(_, i) in group {
+                    first_of[i as usize] = group[0].1;
+                }
+            }
+        }
+        drop(order);
+        let mut first = Vec::new();
+        let mut of_point = vec![0u32; positions.len()];
+        for i in 0..positions.len() {
+            let f = first_of[i] as usize;
+            of_point[i] = if f == i {
+                first.push(i as u32);
+                (first.len() - 1) as u32
+            } else {
+                of_point[f]
+            };
+        }
+        if first.len() == positions.len() {
+            // Only colliding hashes, no copies.
+            of_point.clear();
+        }
+        Ok(Distinct { first, of_point })
+    }
+
+    /// Number of distinct positions.
+    pub fn len(&self) -> usize {
+        self.first.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.first.is_empty()
+    }
+
+    /// Whether some position holds more than one point.
+    pub fn has_duplicates(&self) -> bool {
+        !self.of_point.is_empty()
+    }
+
+    /// The distinct positions, in the order of their first points.
+    pub fn positions(&self, positions: &[[f64; 3]]) -> Vec<[f64; 3]> {
+        self.first.iter().map(|&i| positions[i as usize]).collect()
+    }
+
+    /// The distinct index of point `i`.
+    pub fn index(&self, i: usize) -> usize {
+        if self.has_duplicates() {
+            self.of_point[i] as usize
+        } else {
+            i
+        }
+    }
+
+    /// Per-point values from per-distinct-position ones: each point gets its position's.
+    pub fn expand<T: Clone>(&self, values: Vec<T>) -> Vec<T> {
+        if !self.has_duplicates() {
+            return values;
+        }
+        self.of_point
+            .iter()
+            .map(|&d| values[d as usize].clone())
+            .collect()
+    }
+}
+
+/// Mean distance from a point to its nearest *distinct* neighbour, over the distinct
+/// positions (copies of a point count once) but isolated points (over 1,000 times the
+/// median), estimated on an evenly spread subsample of at most `max_samples` of them (all
+/// when fewer). `None` when there are fewer than two distinct positions.
 pub fn mean_spacing(positions: &[[f64; 3]], max_samples: usize) -> Option<f64> {
-    if positions.len() < 2 {
+    mean_spacing_of(&Distinct::of(positions).ok()?, positions, max_samples)
+}
+
+/// [`mean_spacing`] with the distinct positions of `positions` found already.
+pub fn mean_spacing_of(
+    distinct: &Distinct,
+    positions: &[[f64; 3]],
+    max_samples: usize,
+) -> Option<f64> {
+    if distinct.len() < 2 {
         return None;
+    }
+    if distinct.has_duplicates() {
+        let positions = distinct.positions(positions);
+        return mean_spacing_in(&KdTree::new(&positions).ok()?, &positions, max_samples);
     }
     mean_spacing_in(&KdTree::new(positions).ok()?, positions, max_samples)
 }
 
-/// [`mean_spacing`] with a tree of `positions` built already.
+/// [`mean_spacing`] with a tree of `positions` built already; `positions` must be distinct
+/// ([`Distinct`]), so the nearest other point of the tree is a distinct one.
 pub fn mean_spacing_in(tree: &KdTree, positions: &[[f64; 3]], max_samples: usize) -> Option<f64> {
     if positions.len() < 2 {
         return None;
@@ -543,14 +797,15 @@ pub fn mean_spacing_in(tree: &KdTree, positions: &[[f64; 3]], max_samples: usize
         .par_iter()
         .filter_map(|&i| {
             let p = positions[i];
-            // Exact duplicates sit at distance 0; look a little further for a distinct point.
-            let mut k = 4;
+            // The point itself comes first, at distance 0; positions distinct in f64 may
+            // still round to one f32 point of the tree, so look a little further then.
+            let mut k = 2;
             loop {
                 let res = tree.nearest(p, k.min(positions.len()));
                 if let Some(d) = res.iter().map(|r| r.1).find(|&d| d > 0.0) {
                     return Some(d);
                 }
-                if k >= positions.len() || k >= 256 {
+                if k >= positions.len() || k >= 128 {
                     return None;
                 }
                 k *= 4;
@@ -560,8 +815,22 @@ pub fn mean_spacing_in(tree: &KdTree, positions: &[[f64; 3]], max_samples: usize
     if dists.is_empty() {
         return None;
     }
-    Some(dists.iter().sum::<f64>() / dists.len() as f64)
+    // Samples over FAR_SAMPLE times the median are isolated points, left out of the mean: one
+    // point 1e12 away from a 20,000-point box made the mean 8.7e7 and the line check called
+    // the box a line. On clouds without such points the mean is what it was.
+    let mut sorted = dists.clone();
+    let mid = sorted.len() / 2;
+    let median = *sorted.select_nth_unstable_by(mid, f64::total_cmp).1;
+    let kept: Vec<f64> = dists
+        .into_iter()
+        .filter(|&d| d <= FAR_SAMPLE * median)
+        .collect();
+    Some(kept.iter().sum::<f64>() / kept.len() as f64)
 }
+
+/// See [`mean_spacing_in`]: a nearest distance this many times the median is an isolated
+/// point's, not the sampling's.
+const FAR_SAMPLE: f64 = 1000.0;
 
 #[cfg(test)]
 mod tests {
@@ -624,14 +893,23 @@ mod tests {
     #[test]
     fn segment_query_matches_brute_force() {
         let pts = random_cloud(4000, 21, 10.0, 0.0);
-        let grid = Grid::new(&pts, 0.7).unwrap();
+        // With a point 1e12 away the grid has 2^21 cells a side, and a segment to it crosses
+        // millions of them: the occupied cells are tested instead.
+        let mut far = pts.clone();
+        far.push([1e12, 2e11, 1e12]);
         let segs = [
             ([1.0, 1.0, 1.0], [9.0, 8.0, 7.5], 2.3),
             ([5.0, 5.0, 5.0], [5.0, 5.0, 5.0], 1.5),
             ([-3.0, 2.0, 4.0], [2.0, 2.0, 4.0], 0.4),
             ([0.0, 9.5, 0.0], [10.0, 9.5, 10.0], 3.0),
+            ([5.0, 5.0, 5.0], [1e12, 2e11, 1e12], 3.0),
+            ([5.0, 5.0, 5.0], [-1e12, 5.0, 5.0], 1e6),
         ];
-        for (a, b, reach) in segs {
+        for (pts, (a, b, reach)) in [&pts, &far]
+            .into_iter()
+            .flat_map(|p| segs.iter().map(move |s| (p, *s)))
+        {
+            let grid = Grid::new(pts, 0.7).unwrap();
             let mut got = Vec::new();
             grid.for_each_near_segment(a, b, reach, |i| got.push(i));
             let n = got.len();
@@ -666,6 +944,24 @@ mod tests {
         assert!(matches!(grid.layout, Layout::Sparse { .. }));
         for &q in pts.iter().step_by(37) {
             assert_eq!(grid.within(q, 0.2), brute_within(&pts, q, 0.2));
+        }
+    }
+
+    #[test]
+    fn radius_wider_than_the_cloud_beside_a_far_outlier_matches_brute_force() {
+        // A part and one point 1e12 away: 2^21 cells a side, and the outlier's radius spans
+        // them all (visiting every row would take hours).
+        let mut pts = random_cloud(2000, 43, 10.0, 0.0);
+        pts.push([1e12, 1e12, 1e12]);
+        let grid = Grid::new(&pts, 0.5).unwrap();
+        assert!(matches!(grid.layout, Layout::Sparse { .. }));
+        for (q, r) in [
+            (pts[2000], 2e12),
+            (pts[2000], 1.7e12),
+            (pts[5], 3e12),
+            (pts[5], f64::INFINITY),
+        ] {
+            assert_eq!(grid.within(q, r), brute_within(&pts, q, r), "r {r:e}");
         }
     }
 
@@ -714,6 +1010,108 @@ mod tests {
                 assert!((a - b.1).abs() < 1e-5 * b.1.max(1.0));
             }
         }
+    }
+
+    #[test]
+    fn distinct_groups_exact_copies_onto_their_first_point() {
+        let a = [1.0, 2.0, 3.0];
+        let b = [1.0, 2.0, 3.0 + 1e-15];
+        let pts = [a, b, [0.0, -0.0, 5.0], a, [-0.0, 0.0, 5.0], b, a, [7.0; 3]];
+        let d = Distinct::of(&pts).unwrap();
+        assert!(d.has_duplicates());
+        // a, b (distinct from a by one ulp), the zeros (−0 = +0), [7, 7, 7].
+        assert_eq!(d.first, vec![0, 1, 2, 7]);
+        assert_eq!(
+            (0..pts.len()).map(|i| d.index(i)).collect::<Vec<_>>(),
+            vec![0, 1, 2, 0, 2, 1, 0, 3]
+        );
+        assert_eq!(d.positions(&pts), vec![a, b, [0.0, -0.0, 5.0], [7.0; 3]]);
+        assert_eq!(
+            d.expand(vec!['a', 'b', 'z', 's']),
+            vec!['a', 'b', 'z', 'a', 'z', 'b', 'a', 's']
+        );
+    }
+
+    #[test]
+    fn distinct_without_copies_is_the_identity() {
+        let pts = random_cloud(2000, 12, 1.0, 0.0);
+        let d = Distinct::of(&pts).unwrap();
+        assert!(!d.has_duplicates());
+        assert_eq!(d.len(), pts.len());
+        assert_eq!(d.index(1234), 1234);
+        assert_eq!(d.expand(vec![5u8, 6]), vec![5, 6]);
+        assert!(Distinct::of(&[]).unwrap().is_empty());
+    }
+
+    #[test]
+    fn distinct_of_many_copies_of_few_positions() {
+        // 30,000 points on 3 positions, interleaved: three groups, first points 0, 1, 2.
+        let pos = [[0.5, 0.0, 0.0], [0.0, 1e-300, 0.0], [0.0, 0.0, 1e300]];
+        let pts: Vec<[f64; 3]> = (0..30_000).map(|i| pos[i % 3]).collect();
+        let d = Distinct::of(&pts).unwrap();
+        assert_eq!(d.first, vec![0, 1, 2]);
+        assert!((0..pts.len()).all(|i| d.index(i) == i % 3));
+    }
+
+    #[test]
+    fn kd_tree_distances_do_not_depend_on_the_scale() {
+        // Powers of two change no rounding: the same neighbours, the distances scaled bit for
+        // bit; other factors, within float rounding. Before the tree was scaled, a cloud
+        // 1e-30 wide had all its f32 squared distances at 0 and 1e30 at infinity.
+        let pts = random_cloud(3000, 31, 10.0, 5.0);
+        let tree = KdTree::new(&pts).unwrap();
+        for s in [2f64.powi(-120), 2f64.powi(110), 1e-30, 1e30, 1e-300, 1e300] {
+            let scaled: Vec<[f64; 3]> = pts.iter().map(|p| p.map(|x| x * s)).collect();
+            let st = KdTree::new(&scaled).unwrap();
+            for i in (0..pts.len()).step_by(97) {
+                let want = tree.nearest(pts[i], 6);
+                let got = st.nearest(scaled[i], 6);
+                if s.log2().fract() == 0.0 {
+                    let unscaled: Vec<(u32, f64)> = got.iter().map(|&(j, d)| (j, d / s)).collect();
+                    assert_eq!(unscaled, want, "scale {s:e}, point {i}");
+                } else {
+                    // Coordinates rounded to f32 in a cloud 10 wide: a few 1e-7 per distance.
+                    for (g, w) in got.iter().zip(&want) {
+                        assert!((g.1 / s - w.1).abs() <= 1e-5, "scale {s:e}, point {i}");
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn kd_tree_keeps_the_bulk_precise_beside_a_far_outlier() {
+        // One point 1e12 away: with the box's centre and extent the 3,000 bulk points would
+        // be a few f32 steps wide. The bulk's neighbours must be what they are without it.
+        let pts = random_cloud(3000, 41, 10.0, 0.0);
+        let mut with = pts.clone();
+        with.push([1e12, -1e12, 3e11]);
+        with.push([f64::MAX, 0.0, 0.0]);
+        let (a, b) = (KdTree::new(&pts).unwrap(), KdTree::new(&with).unwrap());
+        for i in (0..pts.len()).step_by(53) {
+            let (want, got) = (a.nearest(pts[i], 5), b.nearest(pts[i], 5));
+            let ids = |v: &[(u32, f64)]| v.iter().map(|r| r.0).collect::<Vec<_>>();
+            assert_eq!(ids(&got), ids(&want), "point {i}");
+            for (g, w) in got.iter().zip(&want) {
+                assert!((g.1 - w.1).abs() <= 1e-5, "point {i}: {} vs {}", g.1, w.1);
+            }
+        }
+        // The outliers' own nearest: each other, then the bulk.
+        let near = b.nearest(with[3000], 2);
+        assert_eq!(near[0].0, 3000);
+        assert!(near[1].1 > 1e11, "{near:?}");
+    }
+
+    #[test]
+    fn mean_spacing_counts_copies_once() {
+        let pts = random_cloud(3000, 13, 10.0, 0.0);
+        let mut copied = pts.clone();
+        copied.extend(std::iter::repeat_n(pts[17], 20_000));
+        assert_eq!(mean_spacing(&copied, 50_000), mean_spacing(&pts, 50_000));
+        assert_eq!(
+            mean_spacing(&[[1.0, 2.0, 3.0], [1.0, 2.0, 4.0]], 10),
+            Some(1.0)
+        );
     }
 
     #[test]

@@ -4,6 +4,8 @@
 //! files of the output contract (rectified.ply or .las/.laz, features.ply, edges.geojson,
 //! report.json in the output folder) and a `Summary` for the one-screen report. Each stage
 //! is a plain function of the library; this module only calls them in order and times them.
+//! The stages see each position once: exact copies of a point are set aside before them
+//! (`neighbours::Distinct`) and get their first point's results after them.
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -13,7 +15,7 @@ use crate::config::Settings;
 use crate::error::{Error, Result};
 use crate::io;
 use crate::left_out::{LeftOut, Tally};
-use crate::neighbours::{self, Grid, KdTree};
+use crate::neighbours::{self, Distinct, Grid, KdTree};
 use crate::outcome::{self, Outcome, Timing, describe};
 use crate::progress::Progress;
 use crate::report;
@@ -21,11 +23,11 @@ use crate::stages::convexity;
 use crate::stages::corners::{self, CornerFit};
 use crate::stages::edges;
 use crate::stages::faces;
-use crate::stages::features::{self, Scale};
+use crate::stages::features::{self, Features, Scale};
 use crate::stages::plane_corners;
 use crate::stages::rectify;
 use crate::stages::scale;
-use crate::stages::segment;
+use crate::stages::segment::{self, Segments};
 
 /// What a run did, for the summary screen (report.json has the full detail).
 #[derive(Debug, Clone)]
@@ -136,28 +138,42 @@ fn run_into(settings: &Settings, input: PathBuf, out_dir: &Path) -> Result<Summa
 
 /// The stages between reading and writing, on a cloud in memory.
 pub fn process(cloud: Cloud, settings: &Settings, clock: &mut impl LapClock) -> Result<Outcome> {
-    check_cloud(&cloud)?;
     let path = cloud.source.path.clone();
-    let tree = KdTree::new(&cloud.positions).map_err(|e| in_file(&path, e))?;
+    let distinct = Distinct::of(&cloud.positions).map_err(|e| in_file(&path, e))?;
+    check_cloud(&cloud, &distinct)?;
+    // The stages see every position once (see `Distinct`); copies get their first point's
+    // results when the per-point arrays are expanded at the end.
+    let distinct_positions;
+    let positions: &[[f64; 3]] = if distinct.has_duplicates() {
+        distinct_positions = distinct.positions(&cloud.positions);
+        &distinct_positions
+    } else {
+        &cloud.positions
+    };
+    check_extent(&path, positions)?;
+    let tree = KdTree::new(positions).map_err(|e| in_file(&path, e))?;
     let spacing =
-        neighbours::mean_spacing_in(&tree, &cloud.positions, 50_000).ok_or_else(|| {
-            Error::BadCloud {
-                path: path.clone(),
-                what: "cannot measure the point spacing: the sampled points have no distinct \
-                   neighbour among their 256 nearest (hundreds of exact duplicates of every \
-                   point?); remove the duplicates"
-                    .into(),
-            }
+        neighbours::mean_spacing_in(&tree, positions, 50_000).ok_or_else(|| Error::BadCloud {
+            path: path.clone(),
+            what: "cannot measure the point spacing: no sampled point has a neighbour at a \
+                   distance a float can hold"
+                .into(),
         })?;
-    check_not_collinear(&cloud, spacing)?;
+    check_spacing(&path, spacing)?;
+    check_not_collinear(&path, positions, cloud.len(), spacing)?;
     check_given_lengths(&cloud, &settings.features)?;
-    let local = scale::local_scale_in(
-        &tree,
-        &cloud.positions,
-        spacing,
-        &settings.features.scale_rules(),
-    )
-    .map_err(|e| in_file(&path, e))?;
+    // Said once the cloud is accepted, so a refused one prints its error alone.
+    if distinct.has_duplicates() {
+        tracing::warn!(
+            "{}: {} of {} points repeat the position of an earlier point; each position is \
+             analysed once and its copies get its result",
+            path.display(),
+            cloud.len() - distinct.len(),
+            cloud.len()
+        );
+    }
+    let local = scale::local_scale_in(&tree, positions, spacing, &settings.features.scale_rules())
+        .map_err(|e| in_file(&path, e))?;
     drop(tree);
     let scale = local.summary();
     tracing::info!(
@@ -172,31 +188,24 @@ pub fn process(cloud: Cloud, settings: &Settings, clock: &mut impl LapClock) -> 
     );
     clock.lap("scale");
     // Cells as wide as nine radii in ten: the rest take the wider query.
-    let grid =
-        Grid::new(&cloud.positions, local.radius_quantile(0.9)).map_err(|e| in_file(&path, e))?;
+    let grid = Grid::new(positions, local.radius_quantile(0.9)).map_err(|e| in_file(&path, e))?;
     clock.lap("neighbours");
-    let progress = Progress::start("features", cloud.len() as u64, "points");
-    let features = features::features(
-        &cloud.positions,
-        &grid,
-        &local,
-        &settings.features,
-        &progress,
-    );
+    let progress = Progress::start("features", positions.len() as u64, "points");
+    let features = features::features(positions, &grid, &local, &settings.features, &progress);
     drop(progress);
     clock.lap("features");
-    let planar = faces::planar_faces(&cloud.positions, &grid, &features, &local);
+    let planar = faces::planar_faces(positions, &grid, &features, &local);
     tracing::info!("{} planar faces", planar.planes.len());
     clock.lap("faces");
     // Edge runs are grown at the scale of the candidates (the points near edges), not of the
     // whole cloud.
     let run_scale = local
-        .around((0..cloud.len() as u32).filter(|&i| features.candidate[i as usize]))
+        .around((0..positions.len() as u32).filter(|&i| features.candidate[i as usize]))
         .unwrap_or(scale);
-    let mut segments = segment::segment(&cloud.positions, &features, &run_scale, &settings.segment);
+    let mut segments = segment::segment(positions, &features, &run_scale, &settings.segment);
     clock.lap("segment");
     let surface = edges::Surface {
-        positions: &cloud.positions,
+        positions,
         outlier: &features.outlier,
         grid: &grid,
         scale: &local,
@@ -221,7 +230,7 @@ pub fn process(cloud: Cloud, settings: &Settings, clock: &mut impl LapClock) -> 
             _ => None,
         }));
         segments = segment::without_runs(
-            &cloud.positions,
+            positions,
             segments,
             &not_edge,
             &run_scale,
@@ -273,15 +282,14 @@ pub fn process(cloud: Cloud, settings: &Settings, clock: &mut impl LapClock) -> 
     // Corners where planar faces meet: they refine the fitted corners they coincide with
     // and add those whose edges were too short to fit.
     let plane_found = plane_corners::face_corners(
-        &cloud.positions,
+        positions,
         &grid,
         &features,
         &local,
         &planar,
         &settings.edges,
     );
-    let plane_edges =
-        plane_corners::face_edges(&cloud.positions, &grid, &features, &planar, &plane_found);
+    let plane_edges = plane_corners::face_edges(positions, &grid, &features, &planar, &plane_found);
     let corner_of_plane = plane_corners::place_corners(&plane_found, &mut corner_list);
     let mut geometry = corners::edge_geometry(&segments, &fits, &corner_list, &corner_of_vertex);
     let new_edges =
@@ -297,7 +305,7 @@ pub fn process(cloud: Cloud, settings: &Settings, clock: &mut impl LapClock) -> 
         }
     }
     let mut rect = rectify::rectify(
-        &cloud.positions,
+        positions,
         &grid,
         &fits,
         &geometry,
@@ -327,18 +335,58 @@ pub fn process(cloud: Cloud, settings: &Settings, clock: &mut impl LapClock) -> 
     }
     debug_assert!(edges.iter().enumerate().all(|(i, e)| e.id == i));
     outcome::link_corners(&edges, &mut corners);
+    // Back to every point of the cloud: a copy has its first point's results, and keeps its
+    // own coordinates (bit for bit) where nothing moved.
+    let moved = distinct.expand(rect.moved);
+    let rectified = distinct
+        .expand(rect.positions)
+        .into_iter()
+        .zip(&moved)
+        .zip(&cloud.positions)
+        .map(|((r, &m), &p)| if m { r } else { p })
+        .collect();
     Ok(Outcome {
+        features: expand_features(features, &distinct),
+        segments: expand_segments(segments, &distinct),
         cloud,
         scale,
-        features,
-        segments,
         edges,
         corners,
-        rectified: rect.positions,
-        moved: rect.moved,
-        edge_label: rect.label,
+        rectified,
+        moved,
+        edge_label: distinct.expand(rect.label),
         left_out,
     })
+}
+
+/// The per-point features of the distinct positions, for every point of the cloud.
+fn expand_features(f: Features, distinct: &Distinct) -> Features {
+    Features {
+        normal: distinct.expand(f.normal),
+        sharpness: distinct.expand(f.sharpness),
+        variation: distinct.expand(f.variation),
+        count: distinct.expand(f.count),
+        split: distinct.expand(f.split),
+        direction: distinct.expand(f.direction),
+        corner: distinct.expand(f.corner),
+        candidate: distinct.expand(f.candidate),
+        outlier: distinct.expand(f.outlier),
+        split_threshold: f.split_threshold,
+    }
+}
+
+/// The runs of the distinct positions with point ids of the cloud (a run lists each
+/// position's first point), and every point's run label.
+fn expand_segments(mut s: Segments, distinct: &Distinct) -> Segments {
+    if distinct.has_duplicates() {
+        for run in &mut s.runs {
+            for p in &mut run.points {
+                *p = distinct.first[*p as usize];
+            }
+        }
+    }
+    s.label = distinct.expand(s.label);
+    s
 }
 
 /// Timing of stages; tests pass a clock that ignores them.
@@ -359,42 +407,90 @@ impl LapClock for NoClock {
     fn lap(&mut self, _: &'static str) {}
 }
 
-/// Rejects clouds no stage can work on, with the reason and the file.
-fn check_cloud(cloud: &Cloud) -> Result<()> {
+/// Rejects clouds no stage can work on, with the reason and the file. Copies of a point count
+/// once: 100,000 points at two positions are no surface.
+fn check_cloud(cloud: &Cloud, distinct: &Distinct) -> Result<()> {
     let path = cloud.source.path.clone();
-    match cloud.len() {
-        0 => {
-            return Err(Error::BadCloud {
-                path,
-                what: "the cloud has no points".into(),
-            });
-        }
-        n if n < 10 => {
-            return Err(Error::BadCloud {
+    let copies = if distinct.has_duplicates() {
+        format!(" ({} points)", cloud.len())
+    } else {
+        String::new()
+    };
+    match distinct.len() {
+        0 => Err(Error::BadCloud {
+            path,
+            what: "the cloud has no points".into(),
+        }),
+        1 if cloud.len() > 1 => {
+            let first = cloud.positions[0];
+            Err(Error::BadCloud {
                 path,
                 what: format!(
-                    "the cloud has only {n} point(s); edge extraction needs a scanned surface (thousands of points)"
+                    "all {} points are identical ({}, {}, {}): there is no surface to analyse",
+                    cloud.len(),
+                    first[0],
+                    first[1],
+                    first[2]
                 ),
-            });
+            })
         }
-        _ => {}
-    }
-    // Checked here, not through the spacing: the spacing skips exact duplicates and would
-    // call a heavily duplicated cloud "identical".
-    let first = cloud.positions[0];
-    if cloud.positions.iter().all(|p| *p == first) {
-        return Err(Error::BadCloud {
+        n if n < 10 => Err(Error::BadCloud {
             path,
             what: format!(
-                "all {} points are identical ({}, {}, {}): there is no surface to analyse",
-                cloud.len(),
-                first[0],
-                first[1],
-                first[2]
+                "the cloud has only {n} {}{copies}; edge extraction needs a scanned surface \
+                 (thousands of points)",
+                if distinct.has_duplicates() {
+                    "distinct positions"
+                } else {
+                    "point(s)"
+                }
             ),
-        });
+        }),
+        _ => Ok(()),
     }
-    Ok(())
+}
+
+/// The lengths the stages can work with, in model units. Each point's spacing, noise sigma and
+/// radius are kept as f32 (`LocalScale`), normal between 1.2e-38 and 3.4e38, and the noise is
+/// a small share of the spacing. A noisy box (100,000 points, 100 units wide, spacing 0.49)
+/// scaled by every power of ten from 1e-38 (spacing 4.9e-39) to 1e37 (extent 1e39) gave the
+/// unscaled box's 12 edges and 8 corners (within 3e-14 of its size) and moved the same
+/// points; scaled by 1e38 (extent 1e40) its corners moved by 2 % of the spacing, by 1e-45
+/// (spacing 4.9e-46) it found 13 edges and no corner, and beyond either the grid's cells
+/// became 0 or infinite. The limits keep three decades from where it breaks.
+const MIN_SPACING: f64 = 1e-35;
+const MAX_EXTENT: f64 = 1e35;
+
+/// Rejects a cloud wider than [`MAX_EXTENT`] (its largest bounding box side).
+fn check_extent(path: &Path, positions: &[[f64; 3]]) -> Result<()> {
+    let (lo, hi) = crate::geometry::bounds(positions);
+    let extent = (0..3).map(|k| hi[k] - lo[k]).fold(0.0, f64::max);
+    if extent <= MAX_EXTENT {
+        return Ok(());
+    }
+    Err(Error::BadCloud {
+        path: path.to_path_buf(),
+        what: format!(
+            "the cloud spans {extent:.3e} model units, more than the {MAX_EXTENT:e} sharpedge \
+             can compute with (per-point lengths are 32-bit floats); scale the coordinates \
+             down (other units)"
+        ),
+    })
+}
+
+/// Rejects a mean spacing below [`MIN_SPACING`].
+fn check_spacing(path: &Path, spacing: f64) -> Result<()> {
+    if spacing >= MIN_SPACING {
+        return Ok(());
+    }
+    Err(Error::BadCloud {
+        path: path.to_path_buf(),
+        what: format!(
+            "the points are {spacing:.3e} model units apart, less than the {MIN_SPACING:e} \
+             sharpedge can compute with (per-point lengths are 32-bit floats); scale the \
+             coordinates up (other units)"
+        ),
+    })
 }
 
 /// Rejects a cloud whose points all lie on one straight line: no surface, so no edge, and
@@ -431,24 +527,30 @@ fn check_given_lengths(cloud: &Cloud, f: &features::FeatureParams) -> Result<()>
 /// "On the line" means within a thousandth of the spacing of the principal axis (total least
 /// squares line through the centroid), far above f32 rounding of stored coordinates and far
 /// below the width of any scanned strip.
-fn check_not_collinear(cloud: &Cloud, spacing: f64) -> Result<()> {
-    let n = cloud.len() as f64;
+/// `points` is the cloud's count (`positions` may be its distinct positions).
+fn check_not_collinear(
+    path: &Path,
+    positions: &[[f64; 3]],
+    points: usize,
+    spacing: f64,
+) -> Result<()> {
+    let n = positions.len() as f64;
     let mut c = [0.0f64; 3];
-    for p in &cloud.positions {
+    for p in positions {
         for k in 0..3 {
             c[k] += p[k] / n;
         }
     }
     // Two passes (centroid, then moments about it) keep georeferenced offsets out of the sums.
     let mut m = nalgebra::Matrix3::<f64>::zeros();
-    for p in &cloud.positions {
+    for p in positions {
         let d = nalgebra::Vector3::new(p[0] - c[0], p[1] - c[1], p[2] - c[2]);
         m += d * d.transpose();
     }
     let eig = nalgebra::SymmetricEigen::new(m);
     let axis = eig.eigenvectors.column(eig.eigenvalues.imax()).into_owned();
     let tolerance = 1e-3 * spacing;
-    let off_line = cloud.positions.iter().any(|p| {
+    let off_line = positions.iter().any(|p| {
         let d = nalgebra::Vector3::new(p[0] - c[0], p[1] - c[1], p[2] - c[2]);
         (d - axis * d.dot(&axis)).norm() > tolerance
     });
@@ -456,17 +558,11 @@ fn check_not_collinear(cloud: &Cloud, spacing: f64) -> Result<()> {
         return Ok(());
     }
     Err(Error::BadCloud {
-        path: cloud.source.path.clone(),
+        path: path.to_path_buf(),
         what: format!(
             "all {} points lie on one straight line (collinear within {tolerance:.3e}, through \
              ({:.6}, {:.6}, {:.6}) along ({:.6}, {:.6}, {:.6})): there is no surface to analyse",
-            cloud.len(),
-            c[0],
-            c[1],
-            c[2],
-            axis[0],
-            axis[1],
-            axis[2]
+            points, c[0], c[1], c[2], axis[0], axis[1], axis[2]
         ),
     })
 }

@@ -318,6 +318,9 @@ pub struct FileInfo {
     pub points: usize,
     /// Points with a NaN or infinite coordinate (counted, not in the bounding box).
     pub non_finite: usize,
+    /// Finite points at exactly the position of an earlier point (`run` analyses each
+    /// position once).
+    pub duplicates: usize,
     /// x, y, z with their stored types, then every attribute the reader carries.
     pub properties: Vec<PropertyInfo>,
     /// Elements that are not points (faces, edges, ...): skipped by the reader.
@@ -338,6 +341,13 @@ impl std::fmt::Display for FileInfo {
         write!(f, "points:      {}", self.points)?;
         if self.non_finite > 0 {
             write!(f, " ({} with NaN or infinite coordinates)", self.non_finite)?;
+        }
+        if self.duplicates > 0 {
+            write!(
+                f,
+                " ({} at the position of an earlier point)",
+                self.duplicates
+            )?;
         }
         writeln!(f)?;
         let props: Vec<String> = self
@@ -379,9 +389,9 @@ impl std::fmt::Display for FileInfo {
     }
 }
 
-/// Describes a file: format, point count, properties with types, bounding box, mean spacing
-/// (estimated on up to 100,000 points). Reads the whole file (the bounding box and the
-/// non-finite count need every point).
+/// Describes a file: format, point count, duplicated points, properties with types, bounding
+/// box, mean spacing (estimated on up to 100,000 distinct positions). Reads the whole file
+/// (the bounding box and the non-finite count need every point).
 pub fn describe(path: &Path) -> Result<FileInfo> {
     let loaded = load(path)?;
     let cloud = &loaded.cloud;
@@ -398,6 +408,13 @@ pub fn describe(path: &Path) -> Result<FileInfo> {
             b.max[k] = b.max[k].max(*c);
         }
     }
+    let finite: Vec<[f64; 3]> = cloud
+        .positions
+        .iter()
+        .copied()
+        .filter(is_finite_point)
+        .collect();
+    let distinct = crate::neighbours::Distinct::of(&finite)?;
     Ok(FileInfo {
         path: path.to_path_buf(),
         format: cloud.source.format.clone(),
@@ -407,16 +424,9 @@ pub fn describe(path: &Path) -> Result<FileInfo> {
         other_elements: loaded.other_elements,
         bbox,
         double_precision: cloud.source.double_precision,
-        mean_spacing: {
-            // Over finite points only; a subsample keeps `info` quick on big files.
-            let finite: Vec<[f64; 3]> = cloud
-                .positions
-                .iter()
-                .copied()
-                .filter(is_finite_point)
-                .collect();
-            crate::neighbours::mean_spacing(&finite, 100_000)
-        },
+        duplicates: finite.len() - distinct.len(),
+        // Over distinct finite positions; a subsample keeps `info` quick on big files.
+        mean_spacing: crate::neighbours::mean_spacing_of(&distinct, &finite, 100_000),
     })
 }
 
