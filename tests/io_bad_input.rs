@@ -512,13 +512,18 @@ fn truncated_or_corrupt_las_and_laz() {
         truncate(&t, len * 2 / 3);
         let e = message(read(&t), &t);
         if ext == "las" {
+            // The count is checked against the file before any point is read.
+            let whole = (len * 2 / 3 - 227) / 34;
             assert_contains(
                 &e,
-                &["points 0..20000 of 20000", "the point data ends early"],
+                &[
+                    &format!("point {whole} of 20000"),
+                    "the point data ends early",
+                ],
             );
         } else {
             // LAZ keeps its chunk table at the end: the loss shows when the file is opened.
-            assert_contains(&e, &["header", "truncated"]);
+            assert_contains(&e, &["the LAZ chunk table is said to start", "truncated"]);
         }
         // Truncated in the header.
         let h = dir.path().join(format!("head.{ext}"));

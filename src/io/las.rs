@@ -43,7 +43,12 @@ fn is_short_read(e: &las::Error) -> bool {
     e.to_string().contains("failed to fill whole buffer")
 }
 
-fn las_error(path: &Path, place: impl Into<String>, in_header: bool, e: las::Error) -> Error {
+pub(super) fn las_error(
+    path: &Path,
+    place: impl Into<String>,
+    in_header: bool,
+    e: las::Error,
+) -> Error {
     // A failing disk is an I/O error of the file; a short or garbled file is malformed.
     if let las::Error::Io(io) = &e {
         if !matches!(
@@ -249,6 +254,8 @@ pub(crate) fn read(path: &Path) -> Result<Loaded> {
 pub(crate) fn read_lidar(path: &Path, keep_records: bool) -> Result<(Loaded, Lidar)> {
     let file = super::open(path)?;
     let file_len = file.metadata().map(|m| m.len()).unwrap_or(0);
+    // Counts and offsets against the file's size first: the crates allocate from them.
+    let most_points = super::las_check::check(path, file_len)?;
     let mut reader = Reader::new(BufReader::with_capacity(1 << 17, file))
         .map_err(|e| las_error(path, "header", true, e))?;
     let header = reader.header().clone();
@@ -270,13 +277,15 @@ pub(crate) fn read_lidar(path: &Path, keep_records: bool) -> Result<(Loaded, Lid
     let description = format!("{kind} {}, point format {code}", header.version());
 
     // Do not trust the header's count for allocation (a corrupt count could ask for
-    // terabytes); a LAZ point takes at least a few bytes, a LAS point its record length.
+    // terabytes): it was checked against the file above (a LAS point takes its record length,
+    // a LAZ chunk holds a bounded number of points), and the vectors grow as points are
+    // decoded beyond a few bytes a point of the file.
     let min_bytes = if format.is_compressed {
         2
     } else {
         u64::from(format.len()).max(1)
     };
-    let capacity = n.min(file_len / min_bytes) as usize;
+    let capacity = n.min(most_points).min(file_len / min_bytes) as usize;
     let mut positions: Vec<[f64; 3]> = Vec::with_capacity(capacity);
     let mut columns = Columns::new(&format, if keep_records { 0 } else { capacity });
     let record_len = usize::from(format.len());
