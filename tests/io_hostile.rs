@@ -221,9 +221,13 @@ fn xyz_header_of_20000_equal_names_is_refused_at_once() {
 
 /// A LAS (or LAZ, by `compressed`) 1.4 file of `n` points of format 1 in `dir`.
 fn small_las(dir: &Path, name: &str, n: usize, compressed: bool) -> PathBuf {
+    las_of_format(dir, name, n, compressed, 1)
+}
+
+fn las_of_format(dir: &Path, name: &str, n: usize, compressed: bool, format: u8) -> PathBuf {
     let path = dir.join(name);
     let mut b = las::Builder::from((1, 4));
-    b.point_format = las::point::Format::new(1).unwrap();
+    b.point_format = las::point::Format::new(format).unwrap();
     b.point_format.is_compressed = compressed;
     let mut w = las::Writer::from_path(&path, b.into_header().unwrap()).unwrap();
     for i in 0..n {
@@ -274,6 +278,45 @@ fn laz_chunk_table_claiming_billions_of_chunks_is_refused_before_allocating() {
             ],
         );
     }
+}
+
+#[test]
+fn laz_chunk_table_is_checked_whatever_the_header_size_field_says() {
+    // Found by fuzzing: with a header size of 0 the VLRs were looked for at byte 0, the
+    // laszip VLR was not found, the checks were skipped and laz reserved 46 GB.
+    let dir = tempfile::tempdir().unwrap();
+    let good = small_las(dir.path(), "good.laz", 200, true);
+    let mut b = std::fs::read(&good).unwrap();
+    b[94..96].copy_from_slice(&0u16.to_le_bytes());
+    let table = chunk_table_at(&b);
+    b[table + 4..table + 8].copy_from_slice(&u32::MAX.to_le_bytes());
+    let p = write(dir.path(), "header-size.laz", &b);
+    let e = message(read(&p), &p);
+    assert_contains(&e, &["the chunk table declares 4294967295 chunks"]);
+}
+
+#[test]
+fn laz_layer_sizes_beyond_the_chunk_are_refused_before_allocating() {
+    // Found by fuzzing: a layered chunk (point format 6) whose first layer claims 4 GB made
+    // laz reserve it before reading.
+    let dir = tempfile::tempdir().unwrap();
+    let good = las_of_format(dir.path(), "good.laz", 40, true, 6);
+    let mut b = std::fs::read(&good).unwrap();
+    let chunk = u32_at(&b, 96) as usize + 8;
+    // The first point raw (30 bytes), the point count, then the layer sizes.
+    let sizes = chunk + 30 + 4;
+    b[sizes..sizes + 4].copy_from_slice(&0xffff_ff00u32.to_le_bytes());
+    let p = write(dir.path(), "layers.laz", &b);
+    let e = message(read(&p), &p);
+    assert_contains(
+        &e,
+        &[
+            &format!("LAZ chunk 0 of 1 at byte {chunk}"),
+            "the chunk's layers declare",
+        ],
+    );
+    // The good file reads.
+    assert_eq!(read(&good).unwrap().len(), 40);
 }
 
 #[test]

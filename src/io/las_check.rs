@@ -20,7 +20,8 @@
 //!   in the file; every chunk starts with one raw point, so the chunk count is at most the
 //!   compressed bytes / record length; the chunks' byte counts add up to at most the
 //!   compressed bytes; a chunk's points are at most [`MAX_POINTS_PER_BYTE`] a compressed byte
-//!   (or a small buffer's worth); and the header's point count is at most what the chunks hold.
+//!   (or a small buffer's worth); in layered chunks (formats 6-10) the layer sizes add up to
+//!   at most the chunk's bytes; and the header's point count is at most what the chunks hold.
 
 use std::io::{BufReader, Read, Seek, SeekFrom};
 use std::path::Path;
@@ -65,6 +66,10 @@ pub(super) fn check(path: &Path, file_len: u64) -> Result<u64> {
     let mut f = BufReader::new(super::open(path)?);
     let raw =
         las::raw::Header::read_from(&mut f).map_err(|e| las_error(path, "header", true, e))?;
+    // The VLRs follow what was read as the header, whatever its size field says.
+    let vlrs_at = f
+        .stream_position()
+        .map_err(|e| Error::io(path, "cannot read", e))?;
     if las::point::Format::new(raw.point_data_record_format).is_err() {
         // The las crate names the bad point format itself.
         return Ok(point_count(&raw));
@@ -148,7 +153,7 @@ pub(super) fn check(path: &Path, file_len: u64) -> Result<u64> {
     }
 
     if compressed {
-        bound = check_laz(&mut f, path, &raw, n, file_len)?;
+        bound = check_laz(&mut f, path, &raw, vlrs_at, n, file_len)?;
     }
     Ok(bound)
 }
@@ -158,31 +163,38 @@ fn check_laz<R: Read + Seek>(
     f: &mut R,
     path: &Path,
     raw: &las::raw::Header,
+    vlrs_at: u64,
     n: u64,
     file_len: u64,
 ) -> Result<u64> {
     let record_len = u64::from(raw.point_data_record_length);
     let data_start = u64::from(raw.offset_to_point_data);
     let io = |e: std::io::Error| Error::io(path, "cannot read", e);
-    // The laszip VLR among the VLRs between the header and the point data. Without one the
-    // las crate says so itself.
-    let mut pos = u64::from(raw.header_size);
+    // The laszip VLR, found as the las crate finds it: the first VLR (read one after the
+    // other from the end of the header) whose user id is `laszip encoded` and record id
+    // 22204. Without one the las crate says so itself.
+    let mut pos = vlrs_at;
     let mut vlr = None;
+    let mut compressor = 0u16;
     for _ in 0..raw.number_of_variable_length_records {
         // 54 bytes of VLR header: reserved, user id (16), record id, length, description.
         let mut h = [0u8; 54];
         f.seek(SeekFrom::Start(pos)).map_err(io)?;
-        if pos.saturating_add(54) > data_start || f.read_exact(&mut h).is_err() {
+        if f.read_exact(&mut h).is_err() {
             break;
         }
         let len = u64::from(u16::from_le_bytes([h[20], h[21]]));
         let user = &h[2..18];
+        let user = &user[..user.iter().position(|&c| c == 0).unwrap_or(16)];
         let record_id = u16::from_le_bytes([h[18], h[19]]);
-        if user.starts_with(b"laszip encoded") && record_id == 22204 {
+        if user == b"laszip encoded" && record_id == 22204 {
             let mut data = vec![0u8; len as usize];
             if f.read_exact(&mut data).is_err() {
                 break;
             }
+            compressor = data
+                .get(..2)
+                .map_or(0, |c| u16::from_le_bytes([c[0], c[1]]));
             vlr = laz::LazVlr::read_from(&data[..]).ok();
             break;
         }
@@ -311,6 +323,16 @@ fn check_laz<R: Read + Seek>(
         }
         capacity = capacity.saturating_add(points);
     }
+    if compressor == LAYERED_CHUNKED {
+        check_layers(
+            f,
+            path,
+            &vlr,
+            entries.as_ref(),
+            compressed_start,
+            record_len,
+        )?;
+    }
     if n > capacity {
         return Err(malformed(
             path,
@@ -322,4 +344,63 @@ fn check_laz<R: Read + Seek>(
         ));
     }
     Ok(n)
+}
+
+/// laszip's compressor code of layered chunks (point formats 6 to 10).
+const LAYERED_CHUNKED: u16 = 3;
+
+/// Layered chunks (point formats 6-10) start with the first point raw, a point count and one
+/// u32 size a layer; laz reserves every layer's size before reading it, so the sizes must
+/// add up to at most the chunk's bytes. The layers of each laz item as laz 0.13 reads them.
+fn check_layers<R: Read + Seek>(
+    f: &mut R,
+    path: &Path,
+    vlr: &laz::LazVlr,
+    entries: &[laz::laszip::ChunkTableEntry],
+    compressed_start: u64,
+    record_len: u64,
+) -> Result<()> {
+    use laz::laszip::LazItemType as T;
+    let layers: u64 = vlr
+        .items()
+        .iter()
+        .map(|i| match i.item_type() {
+            T::Point14 => 9,
+            T::RGBNIR14 => 2,
+            T::RGB14 | T::WavePacket14 => 1,
+            T::Byte14(n) => u64::from(n),
+            // Not layered: laz refuses the item before reading any chunk.
+            _ => 0,
+        })
+        .sum();
+    let head = record_len + 4 + 4 * layers;
+    let mut start = compressed_start;
+    let mut sizes = vec![0u8; 4 * layers as usize];
+    for (i, e) in entries.iter().enumerate() {
+        // A chunk too short for its own sizes ends inside them: laz says so without
+        // reserving anything.
+        if e.byte_count >= head {
+            f.seek(SeekFrom::Start(start + record_len + 4))
+                .map_err(|e| Error::io(path, "cannot read", e))?;
+            f.read_exact(&mut sizes)
+                .map_err(|e| Error::io(path, "cannot read", e))?;
+            let total: u64 = sizes
+                .chunks_exact(4)
+                .map(|b| u64::from(u32::from_le_bytes([b[0], b[1], b[2], b[3]])))
+                .sum();
+            if total > e.byte_count - head {
+                return Err(malformed(
+                    path,
+                    format!("LAZ chunk {i} of {} at byte {start}", entries.len()),
+                    format!(
+                        "the chunk's layers declare {total} bytes, but it has {} bytes after \
+                         their sizes: the file is damaged",
+                        e.byte_count - head
+                    ),
+                ));
+            }
+        }
+        start += e.byte_count;
+    }
+    Ok(())
 }
