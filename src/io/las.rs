@@ -74,6 +74,23 @@ pub(super) fn las_error(
     Error::malformed(path, place, what)
 }
 
+/// Runs a call into the las/laz crates, turning a panic into an error naming the file. laz
+/// 0.13 indexes its decoding tables with symbols decoded from the file without checking
+/// them: damaged LAZ data made it panic with an index out of bounds (`decoders.rs`, found
+/// by fuzzing), and no check of the file short of decoding it tells such data from good
+/// data. The panic message is still printed by the panic hook; the run then stops with
+/// this error instead of a crash.
+fn unpanicked<T>(path: &Path, place: impl Into<String>, f: impl FnOnce() -> T) -> Result<T> {
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(f)).map_err(|_| {
+        Error::malformed(
+            path,
+            place,
+            "the LAZ decoder failed on this data (a panic in the laz crate): the compressed \
+             points are damaged",
+        )
+    })
+}
+
 /// Column storage for one chunk sweep.
 struct Columns {
     intensity: Vec<u16>,
@@ -256,8 +273,10 @@ pub(crate) fn read_lidar(path: &Path, keep_records: bool) -> Result<(Loaded, Lid
     let file_len = file.metadata().map(|m| m.len()).unwrap_or(0);
     // Counts and offsets against the file's size first: the crates allocate from them.
     let most_points = super::las_check::check(path, file_len)?;
-    let mut reader = Reader::new(BufReader::with_capacity(1 << 17, file))
-        .map_err(|e| las_error(path, "header", true, e))?;
+    let mut reader = unpanicked(path, "header", || {
+        Reader::new(BufReader::with_capacity(1 << 17, file))
+    })?
+    .map_err(|e| las_error(path, "header", true, e))?;
     let header = reader.header().clone();
     let format = *header.point_format();
     let n = header.number_of_points();
@@ -302,14 +321,9 @@ pub(crate) fn read_lidar(path: &Path, keep_records: bool) -> Result<(Loaded, Lid
     let mut done = 0u64;
     while done < n {
         let want = CHUNK.min(n - done);
-        let got = reader.fill_points(want, &mut pd).map_err(|e| {
-            las_error(
-                path,
-                format!("points {done}..{} of {n}", done + want),
-                false,
-                e,
-            )
-        })?;
+        let place = || format!("points {done}..{} of {n}", done + want);
+        let got = unpanicked(path, place(), || reader.fill_points(want, &mut pd))?
+            .map_err(|e| las_error(path, place(), false, e))?;
         if got == 0 {
             return Err(Error::malformed(
                 path,
