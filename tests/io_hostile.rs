@@ -348,24 +348,7 @@ fn set_count(b: &mut [u8], n: u64) {
 }
 
 #[test]
-fn laz_header_count_beyond_what_the_chunks_hold_is_refused() {
-    let dir = tempfile::tempdir().unwrap();
-    let good = small_las(dir.path(), "good.laz", 50, true);
-    let p = patched(&good, "count.laz", |b| set_count(b, 1 << 50));
-    quick(Duration::from_secs(2), || {
-        refused(
-            &p,
-            &[
-                "header",
-                "the header declares 1125899906842624 points",
-                "1 chunks hold at most 50000",
-            ],
-        )
-    });
-}
-
-#[test]
-fn las_point_count_beyond_the_file_is_refused_before_allocating() {
+fn las_and_laz_point_counts_beyond_the_file_are_refused_before_allocating() {
     let dir = tempfile::tempdir().unwrap();
     let good = small_las(dir.path(), "good.las", 10, false);
     let p = patched(&good, "count.las", |b| set_count(b, u64::MAX / 16));
@@ -380,6 +363,19 @@ fn las_point_count_beyond_the_file_is_refused_before_allocating() {
             "the point data ends early: the header declares 1000000 points of 28 bytes",
         ],
     );
+    // LAZ: at most the chunk table's chunks x points a chunk.
+    let good = small_las(dir.path(), "good.laz", 50, true);
+    let p = patched(&good, "count.laz", |b| set_count(b, 1 << 50));
+    quick(Duration::from_secs(2), || {
+        refused(
+            &p,
+            &[
+                "header",
+                "the header declares 1125899906842624 points",
+                "1 chunks hold at most 50000",
+            ],
+        )
+    });
 }
 
 #[test]
@@ -437,13 +433,25 @@ fn small_las_and_laz_still_read() {
 fn laz_data_that_makes_the_laz_crate_panic_is_an_error() {
     // Found by fuzzing (1133 bytes, from the format 8 seed): an RGB layer that decodes to a
     // symbol past laz 0.13's decoding table (index out of bounds in decoders.rs).
-    let bytes: Vec<u8> = (0..LAZ_PANIC_HEX.len())
-        .step_by(2)
-        .map(|i| u8::from_str_radix(&LAZ_PANIC_HEX[i..i + 2], 16).unwrap())
-        .collect();
     let dir = tempfile::tempdir().unwrap();
-    let p = write(dir.path(), "panic.laz", &bytes);
+    let p = write(dir.path(), "panic.laz", &unhex(LAZ_PANIC_HEX));
     refused(&p, &["the LAZ decoder failed on this data"]);
+}
+
+#[test]
+fn laz_gps_times_that_recurse_deep_in_the_laz_crate_do_not_overflow_the_stack() {
+    // Found by fuzzing (1034 bytes, format 6): laz 0.13 decodes these GPS times recursively
+    // so deep that rayon's 2 MB thread stacks overflowed and the process aborted.
+    let dir = tempfile::tempdir().unwrap();
+    let p = write(dir.path(), "deep.laz", &unhex(LAZ_DEEP_HEX));
+    refused(&p, &["points 0..40 of 40", "the point data ends early"]);
+}
+
+fn unhex(hex: &str) -> Vec<u8> {
+    (0..hex.len())
+        .step_by(2)
+        .map(|i| u8::from_str_radix(&hex[i..i + 2], 16).unwrap())
+        .collect()
 }
 
 /// The fuzzer's input, byte for byte.
@@ -472,4 +480,30 @@ const LAZ_PANIC_HEX: &str = concat!(
     "000000000000000000000000000003000000020200000000000050c30000ffffffffffffffffffffffffffffffff0200",
     "0a001e0003000c00080003006004000000000800030060040000000000000000000040420f00b8e8f0ff000011000000",
     "000000000000141a283450686000000000000000010000005263870000",
+);
+
+/// The fuzzer's input, byte for byte.
+const LAZ_DEEP_HEX: &str = concat!(
+    "4c4153460000100000000000000000000000000000000000010400000000000000000000000000000000000000000000",
+    "000000000000000000000000000000000000000000000000000000000000000000000000000000000000000000007701",
+    "d501000001000000861e00280000002800000000000000000000000000000000000000fca9f1d24d62503ffca9f1d24d",
+    "62503ffca9f1d24d62503f0000000000408f400000000000408f400000000000408f40295c8fc2f5478f404260e5d022",
+    "348f40f2d24d6290419f400000000000409f400000000000002640c02406819503224000000000000000000000000000",
+    "000000000000002800000000000000280000000000000000000000000000000000000000000000000000000000000000",
+    "000000000000000000000000000000000000000000000000000000000000000000000000000000000000000000000000",
+    "00000000000000000000000000000000000000000000000000000000000000000000000000000000006c61737a697020",
+    "656e636f6465640000bc562800723a206661696c656420746f2066696c6c2077686f6c65206275660000000000030000",
+    "00020200000000000050c30000ffffffffffffffffffffffffffffffff01000a001e000300fd03000000000000000000",
+    "0040420f00b8e8f0ff000011000000000000000000000000000000280000007f0000003f000000000000000000000011",
+    "0000000000000000000000000000000b01000020a4a9605d216a6a268fea6972ac65ab361994c7dc1cb626c36318ff6c",
+    "1e38e85cfd280199c547c8249829f42c5e73e4aff0d28f54d2c78198adf45eb6236284e16ea596f90c34fa6c29f2c263",
+    "98ee48fef32b85ee7dc044c2c3c6bcad10e88973a2bf176589b84dcbe2b64ab08b2bf7580f81e11fe82c94e709c4d800",
+    "000035c04fa162c55754758284b8c8c0e045f4b7e7d5c7762d8d6786eb8e7e58af2f6c61737a69702e6f726700000000",
+    "0000000000000000000003000000020200000000000050c30000ffffffffffffffffffffffffffffffff02000a001e00",
+    "03000b00060003005a040000000000000000000040420f00b8e8f0ff0000110000000000000000000000000000007374",
+    "e0400004c03e25f300000b210b5d5f80001c96ed21480000617c07d8000000805130adc0000373bdd5a6c0000a110cd6",
+    "b400001bf64afece0000d7c4e4e28000053634986d800019d95195720001c9cac8f580001d44d7f29500020737c17500",
+    "0021101d777200023cc3aedb8000248775d04f00025de95348000028a8a1515d0002c970535c00002ff996114900035d",
+    "daa087000039d419fa940003389339c600001bb0355be4000120b619a8000009b5c08671000053aa4c5ce800031a946e",
+    "a700001b9720ea580001000000000000000100000051af340000",
 );

@@ -269,6 +269,29 @@ pub(crate) fn read(path: &Path) -> Result<Loaded> {
 /// [`Lidar`] and the cloud carries no attribute columns (the records hold them); without,
 /// the cloud carries the attribute columns and the `Lidar` only the header and EVLRs.
 pub(crate) fn read_lidar(path: &Path, keep_records: bool) -> Result<(Loaded, Lidar)> {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(rayon::current_num_threads())
+        .stack_size(DECODER_STACK)
+        .build()
+        .map_err(|e| {
+            Error::io(
+                path,
+                "cannot start the threads that decode it",
+                std::io::Error::other(e.to_string()),
+            )
+        })?;
+    pool.install(|| read_lidar_on(path, keep_records))
+}
+
+/// Stack of the threads that decode LAS/LAZ (virtual: only the pages used are committed).
+/// laz 0.13 decodes the GPS times of point formats 6-10 recursively, as deep as the data
+/// leads it: a damaged 1 KB LAZ file (found by fuzzing) overflowed the 2 MB stacks of
+/// rayon's threads and aborted the process; it needed less than 8 MB. The decoding runs in
+/// its own pool of as many threads as the caller's, with 64 MB each.
+const DECODER_STACK: usize = 64 << 20;
+
+/// [`read_lidar`] on the decoding pool's threads.
+fn read_lidar_on(path: &Path, keep_records: bool) -> Result<(Loaded, Lidar)> {
     let file = super::open(path)?;
     let file_len = file.metadata().map(|m| m.len()).unwrap_or(0);
     // Counts and offsets against the file's size first: the crates allocate from them.
