@@ -195,7 +195,7 @@ fn las_header_that_lies() {
     let r = run_las(&c, "offset.las", "out_offset");
     assert_failed_cleanly(
         &r,
-        &["offset.las: points 0..", "the point data ends early"],
+        &["offset.las: point 0 of", "the point data ends early"],
         &c.path().join("out_offset"),
     );
     for out in ["out_count", "out_reclen", "out_offset"] {

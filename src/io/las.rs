@@ -43,7 +43,12 @@ fn is_short_read(e: &las::Error) -> bool {
     e.to_string().contains("failed to fill whole buffer")
 }
 
-fn las_error(path: &Path, place: impl Into<String>, in_header: bool, e: las::Error) -> Error {
+pub(super) fn las_error(
+    path: &Path,
+    place: impl Into<String>,
+    in_header: bool,
+    e: las::Error,
+) -> Error {
     // A failing disk is an I/O error of the file; a short or garbled file is malformed.
     if let las::Error::Io(io) = &e
         && !matches!(
@@ -67,6 +72,23 @@ fn las_error(path: &Path, place: impl Into<String>, in_header: bool, e: las::Err
         (false, _) => format!("{e} (not a valid LAS/LAZ file, or a damaged one)"),
     };
     Error::malformed(path, place, what)
+}
+
+/// Runs a call into the las/laz crates, turning a panic into an error naming the file. laz
+/// 0.13 indexes its decoding tables with symbols decoded from the file without checking
+/// them: damaged LAZ data made it panic with an index out of bounds (`decoders.rs`, found
+/// by fuzzing), and no check of the file short of decoding it tells such data from good
+/// data. The panic message is still printed by the panic hook; the run then stops with
+/// this error instead of a crash.
+fn unpanicked<T>(path: &Path, place: impl Into<String>, f: impl FnOnce() -> T) -> Result<T> {
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(f)).map_err(|_| {
+        Error::malformed(
+            path,
+            place,
+            "the LAZ decoder failed on this data (a panic in the laz crate): the compressed \
+             points are damaged",
+        )
+    })
 }
 
 /// Column storage for one chunk sweep.
@@ -247,10 +269,37 @@ pub(crate) fn read(path: &Path) -> Result<Loaded> {
 /// [`Lidar`] and the cloud carries no attribute columns (the records hold them); without,
 /// the cloud carries the attribute columns and the `Lidar` only the header and EVLRs.
 pub(crate) fn read_lidar(path: &Path, keep_records: bool) -> Result<(Loaded, Lidar)> {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(rayon::current_num_threads())
+        .stack_size(DECODER_STACK)
+        .build()
+        .map_err(|e| {
+            Error::io(
+                path,
+                "cannot start the threads that decode it",
+                std::io::Error::other(e.to_string()),
+            )
+        })?;
+    pool.install(|| read_lidar_on(path, keep_records))
+}
+
+/// Stack of the threads that decode LAS/LAZ (virtual: only the pages used are committed).
+/// laz 0.13 decodes the GPS times of point formats 6-10 recursively, as deep as the data
+/// leads it: a damaged 1 KB LAZ file (found by fuzzing) overflowed the 2 MB stacks of
+/// rayon's threads and aborted the process; it needed less than 8 MB. The decoding runs in
+/// its own pool of as many threads as the caller's, with 64 MB each.
+const DECODER_STACK: usize = 64 << 20;
+
+/// [`read_lidar`] on the decoding pool's threads.
+fn read_lidar_on(path: &Path, keep_records: bool) -> Result<(Loaded, Lidar)> {
     let file = super::open(path)?;
     let file_len = file.metadata().map(|m| m.len()).unwrap_or(0);
-    let mut reader = Reader::new(BufReader::with_capacity(1 << 17, file))
-        .map_err(|e| las_error(path, "header", true, e))?;
+    // Counts and offsets against the file's size first: the crates allocate from them.
+    let most_points = super::las_check::check(path, file_len)?;
+    let mut reader = unpanicked(path, "header", || {
+        Reader::new(BufReader::with_capacity(1 << 17, file))
+    })?
+    .map_err(|e| las_error(path, "header", true, e))?;
     let header = reader.header().clone();
     let format = *header.point_format();
     let n = header.number_of_points();
@@ -270,13 +319,15 @@ pub(crate) fn read_lidar(path: &Path, keep_records: bool) -> Result<(Loaded, Lid
     let description = format!("{kind} {}, point format {code}", header.version());
 
     // Do not trust the header's count for allocation (a corrupt count could ask for
-    // terabytes); a LAZ point takes at least a few bytes, a LAS point its record length.
+    // terabytes): it was checked against the file above (a LAS point takes its record length,
+    // a LAZ chunk holds a bounded number of points), and the vectors grow as points are
+    // decoded beyond a few bytes a point of the file.
     let min_bytes = if format.is_compressed {
         2
     } else {
         u64::from(format.len()).max(1)
     };
-    let capacity = n.min(file_len / min_bytes) as usize;
+    let capacity = n.min(most_points).min(file_len / min_bytes) as usize;
     let mut positions: Vec<[f64; 3]> = Vec::with_capacity(capacity);
     let mut columns = Columns::new(&format, if keep_records { 0 } else { capacity });
     let record_len = usize::from(format.len());
@@ -293,14 +344,9 @@ pub(crate) fn read_lidar(path: &Path, keep_records: bool) -> Result<(Loaded, Lid
     let mut done = 0u64;
     while done < n {
         let want = CHUNK.min(n - done);
-        let got = reader.fill_points(want, &mut pd).map_err(|e| {
-            las_error(
-                path,
-                format!("points {done}..{} of {n}", done + want),
-                false,
-                e,
-            )
-        })?;
+        let place = || format!("points {done}..{} of {n}", done + want);
+        let got = unpanicked(path, place(), || reader.fill_points(want, &mut pd))?
+            .map_err(|e| las_error(path, place(), false, e))?;
         if got == 0 {
             return Err(Error::malformed(
                 path,

@@ -25,7 +25,7 @@
 //! face with fewer than three vertices, non-finite coordinates, or a mesh without faces.
 
 use std::fs::File;
-use std::io::{BufRead, BufReader, Read};
+use std::io::{BufRead, BufReader, Read, Seek};
 use std::path::Path;
 
 use ply_rs_bw::parser::{Parser, Reader};
@@ -631,11 +631,13 @@ fn index_list<'a>(path: &Path, def: &'a ElementDef) -> Result<Option<&'a str>> {
     Ok(None)
 }
 
-fn read_ply<R: Read>(path: &Path, source: R) -> Result<Mesh> {
+fn read_ply<R: Read + Seek>(path: &Path, source: R) -> Result<Mesh> {
+    let file_len = std::fs::metadata(path).map(|m| m.len()).unwrap_or(0);
     let mut reader = Reader::new(BufReader::new(source));
     let header = Parser::<Skip>::new()
         .read_header(&mut reader)
         .map_err(|e| ply_error(path, "header", false, e))?;
+    super::ply::check_unique_names(path)?;
     let binary = header.encoding != ply_rs_bw::ply::Encoding::Ascii;
 
     let Some(vdef) = header.elements.get("vertex") else {
@@ -686,6 +688,8 @@ fn read_ply<R: Read>(path: &Path, source: R) -> Result<Mesh> {
     let mut faces: Vec<PlyIndices> = Vec::new();
     let mut strips: Vec<PlyIndices> = Vec::new();
     for (name, def) in &header.elements {
+        // No count is trusted before it is checked against the bytes left.
+        super::ply::check_element_fits(&mut reader, path, def, header.encoding, file_len)?;
         match name.as_str() {
             "vertex" => {
                 let vs = Parser::<PlyVertex>::new()
@@ -713,11 +717,7 @@ fn read_ply<R: Read>(path: &Path, source: R) -> Result<Mesh> {
                     .read_payload_for_element(&mut reader, def, &header)
                     .map_err(|e| ply_error(path, name, binary, e))?;
             }
-            _ => {
-                Parser::<Skip>::new()
-                    .read_payload_for_element(&mut reader, def, &header)
-                    .map_err(|e| ply_error(path, name, binary, e))?;
-            }
+            _ => super::ply::skip_element(&mut reader, path, def, &header, file_len)?,
         }
     }
 

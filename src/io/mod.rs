@@ -23,6 +23,7 @@ pub mod mesh;
 mod crs;
 mod geojson;
 mod las;
+mod las_check;
 mod las_write;
 pub mod output_set;
 mod ply;

@@ -21,8 +21,9 @@
 //! and every attribute with its type, an optional `element edge` (`int vertex1, int vertex2`),
 //! and a body in binary little endian or ascii, through [`super::write_atomic`].
 
+use std::collections::HashMap;
 use std::fmt::Write as _;
-use std::io::{BufReader, ErrorKind, Read, Write};
+use std::io::{BufRead, BufReader, ErrorKind, Read, Seek, SeekFrom, Write};
 use std::path::Path;
 
 use ply_rs_bw::parser::{ParseError, Parser, Reader};
@@ -358,6 +359,7 @@ pub(crate) fn read(path: &Path, path_choice: VertexPath) -> Result<Loaded> {
     let header = Parser::<Skip>::new()
         .read_header(&mut reader)
         .map_err(|e| header_error(path, &e))?;
+    check_unique_names(path)?;
 
     let Some(vertex_def) = header.elements.get("vertex").cloned() else {
         let names: Vec<&str> = header.elements.keys().map(|k| k.as_str()).collect();
@@ -402,13 +404,15 @@ pub(crate) fn read(path: &Path, path_choice: VertexPath) -> Result<Loaded> {
         if def.name == "vertex" {
             break;
         }
-        let start = reader.line();
-        Parser::<Skip>::new()
-            .read_payload_for_element(&mut reader, def, &header)
-            .map_err(|e| body_error(path, &e, &def.name, def.count, start, header.encoding))?;
+        skip_element(&mut reader, path, def, &header, file_len)?;
     }
 
     let n = vertex_def.count;
+    if header.encoding != Encoding::Ascii {
+        // An ascii body is read line by line, each line consuming the file, and says which
+        // line is missing when it ends early.
+        check_element_fits(&mut reader, path, &vertex_def, header.encoding, file_len)?;
+    }
     // Never trust the header's count for allocation: a lying header could ask for terabytes.
     // Each vertex takes at least one byte per property in any encoding.
     let min_bytes = vertex_def.properties.len().max(1) as u64;
@@ -486,6 +490,152 @@ pub(crate) fn read(path: &Path, path_choice: VertexPath) -> Result<Loaded> {
         properties,
         other_elements,
     })
+}
+
+/// Checks the header for names ply-rs-bw would merge without a word: it keeps elements and
+/// their properties in maps keyed by name, so a second `x` (or a second `vertex` element)
+/// replaces the first and the body would be decoded with a record layout that is not the
+/// file's. Reads the header again (the crate has just parsed it, so it ends): a hash map per
+/// element keeps this linear in the header's length, however many properties it names.
+pub(crate) fn check_unique_names(path: &Path) -> Result<()> {
+    let mut r = BufReader::new(super::open(path)?);
+    let mut elements: HashMap<String, usize> = HashMap::new();
+    let mut properties: HashMap<String, usize> = HashMap::new();
+    let mut element = String::new();
+    let mut buf = Vec::new();
+    let mut line = 0usize;
+    loop {
+        buf.clear();
+        let got = r
+            .read_until(b'\n', &mut buf)
+            .map_err(|e| Error::io(path, "cannot read", e))?;
+        if got == 0 {
+            return Ok(());
+        }
+        line += 1;
+        let text = String::from_utf8_lossy(&buf);
+        let words: Vec<&str> = text.split_whitespace().collect();
+        match words.as_slice() {
+            ["end_header", ..] => return Ok(()),
+            ["element", name, ..] => {
+                if let Some(first) = elements.insert(name.to_string(), line) {
+                    return Err(Error::malformed(
+                        path,
+                        format!("header line {line}"),
+                        format!(
+                            "element `{name}` is declared twice (header lines {first} and \
+                             {line}): which one is meant is ambiguous; rename or remove one"
+                        ),
+                    ));
+                }
+                element = name.to_string();
+                properties.clear();
+            }
+            ["property", .., name] => {
+                if let Some(first) = properties.insert(name.to_string(), line) {
+                    return Err(Error::malformed(
+                        path,
+                        format!("header line {line}"),
+                        format!(
+                            "element `{element}` has two properties named `{name}` (header \
+                             lines {first} and {line}): which one is meant is ambiguous; \
+                             rename or remove one"
+                        ),
+                    ));
+                }
+            }
+            _ => {}
+        }
+    }
+}
+
+/// The fewest bytes one item of `def` takes in a binary body (a list at least its count)
+/// and whether every item takes exactly that (scalar properties only).
+fn min_binary_size(def: &ElementDef) -> (u64, bool) {
+    let mut size = 0u64;
+    let mut fixed = true;
+    for p in def.properties.values() {
+        size += match &p.data_type {
+            PropertyType::Scalar(t) => scalar_size(t) as u64,
+            PropertyType::List(count, _) => {
+                fixed = false;
+                scalar_size(count) as u64
+            }
+        };
+    }
+    (size, fixed)
+}
+
+/// Checks, before anything is read or allocated for it, that the `def.count` items the
+/// header declares can fit in the bytes left after the reader's position: in a binary body
+/// count x the smallest item size, in an ascii body one line (at least one byte) an item.
+/// A header count is never trusted: 2^64 - 1 items of a zero-size element would otherwise be
+/// skipped one by one for ever, and a huge count of small items read until the file ends.
+pub(crate) fn check_element_fits<R: BufRead + Seek>(
+    reader: &mut Reader<R>,
+    path: &Path,
+    def: &ElementDef,
+    encoding: Encoding,
+    file_len: u64,
+) -> Result<()> {
+    let pos = reader
+        .get_mut()
+        .stream_position()
+        .map_err(|e| Error::io(path, "cannot read", e))?;
+    let remaining = file_len.saturating_sub(pos);
+    let count = def.count as u64;
+    let (min, unit) = if encoding == Encoding::Ascii {
+        (1, "one line each".to_string())
+    } else {
+        let (min, fixed) = min_binary_size(def);
+        let unit = if fixed {
+            format!("{min} bytes each")
+        } else {
+            format!("at least {min} bytes each")
+        };
+        (min, unit)
+    };
+    if min == 0 || count.checked_mul(min).is_some_and(|b| b <= remaining) {
+        return Ok(());
+    }
+    let name = &def.name;
+    Err(Error::malformed(
+        path,
+        format!("{name} {} of {count}", remaining / min),
+        format!(
+            "the file ends here, but the header declares {count} `{name}` items ({unit}) and \
+             only {remaining} bytes follow byte {pos}: the file is truncated or its header \
+             promises more than the body holds"
+        ),
+    ))
+}
+
+/// Gets past an element that is not read, after checking its count against the bytes left:
+/// a binary element of scalars is one seek (none for an element without properties, whatever
+/// its count), anything else goes through the crate's parser into [`Skip`].
+pub(crate) fn skip_element<R: BufRead + Seek>(
+    reader: &mut Reader<R>,
+    path: &Path,
+    def: &ElementDef,
+    header: &ply_rs_bw::ply::Header,
+    file_len: u64,
+) -> Result<()> {
+    check_element_fits(reader, path, def, header.encoding, file_len)?;
+    let (size, fixed) = min_binary_size(def);
+    if header.encoding != Encoding::Ascii && fixed {
+        // Fits in the file (checked), so in an i64.
+        let bytes = def.count as u64 * size;
+        reader
+            .get_mut()
+            .seek(SeekFrom::Current(bytes as i64))
+            .map_err(|e| Error::io(path, "cannot read", e))?;
+        return Ok(());
+    }
+    let start = reader.line();
+    Parser::<Skip>::new()
+        .read_payload_for_element(reader, def, header)
+        .map_err(|e| body_error(path, &e, &def.name, def.count, start, header.encoding))?;
+    Ok(())
 }
 
 fn scalar_size(t: &ScalarType) -> usize {

@@ -1,0 +1,262 @@
+//! Writes the seed corpora of the fuzz targets into `corpus-seed/<target>/` (run by
+//! `make_corpus.sh`): small valid files of every flavour each reader takes, made from the
+//! repository's samples (their first points) and generated here, so the fuzzer starts from
+//! inputs that get past the headers. Every file stays under 64 KB. The `xyz` and `mesh`
+//! seeds carry the targets' leading selector byte (see fuzz_targets/xyz.rs and mesh.rs).
+//!
+//! Usage: `make_corpus REPO_ROOT OUT_DIR`.
+
+use std::path::{Path, PathBuf};
+
+use las::point::Format;
+use las::{Builder, Color, Point, Transform, Vector};
+use sharpedge::io::{PlyEncoding, PlyWriteOptions, Precision, ReadOptions, read, write_ply};
+
+/// Points taken from each sample: a few KB per seed.
+const SAMPLE_POINTS: usize = 60;
+
+fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    let (root, out) = match args.as_slice() {
+        [_, root, out] => (PathBuf::from(root), PathBuf::from(out)),
+        _ => {
+            eprintln!("usage: make_corpus REPO_ROOT OUT_DIR");
+            std::process::exit(2);
+        }
+    };
+    for t in ["ply", "las", "xyz", "mesh", "config"] {
+        std::fs::create_dir_all(out.join(t)).expect("cannot create the corpus folders");
+    }
+    ply_seeds(&root, &out.join("ply"));
+    las_seeds(&out.join("las"));
+    xyz_seeds(&out.join("xyz"));
+    mesh_seeds(&out.join("mesh"));
+    config_seeds(&root, &out.join("config"));
+}
+
+fn write(path: &Path, bytes: &[u8]) {
+    std::fs::write(path, bytes).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+}
+
+/// Seeds with the target's selector byte in front.
+fn write_selected(dir: &Path, name: &str, selector: u8, body: &[u8]) {
+    let mut b = vec![selector];
+    b.extend_from_slice(body);
+    write(&dir.join(name), &b);
+}
+
+fn ply_seeds(root: &Path, dir: &Path) {
+    for sample in ["box", "lblock"] {
+        let src = root.join("samples").join(format!("{sample}.ply"));
+        let mut cloud = read(&src, &ReadOptions::default()).expect("cannot read a sample");
+        let keep: Vec<bool> = (0..cloud.len()).map(|i| i < SAMPLE_POINTS).collect();
+        cloud.retain_mask(&keep);
+        let positions = &cloud.positions;
+        let attrs = &cloud.attributes;
+        let refs: Vec<&sharpedge::Attribute> = attrs.iter().collect();
+        for (enc, precision, tag) in [
+            (PlyEncoding::BinaryLittleEndian, Precision::F32, "bin-float"),
+            (
+                PlyEncoding::BinaryLittleEndian,
+                Precision::F64,
+                "bin-double",
+            ),
+            (PlyEncoding::Ascii, Precision::F32, "ascii"),
+        ] {
+            let opts = PlyWriteOptions {
+                encoding: enc,
+                precision,
+            };
+            let path = dir.join(format!("{sample}-{tag}.ply"));
+            let edges: &[[u32; 2]] = if tag == "ascii" {
+                &[[0, 1], [1, 2]]
+            } else {
+                &[]
+            };
+            write_ply(&path, positions, &refs, edges, &opts).expect("cannot write a seed");
+        }
+    }
+    // Hand-written flavours: big endian, an element before `vertex` with a list, integer
+    // coordinates, NaN in ascii.
+    let mut be = b"ply\nformat binary_big_endian 1.0\nelement face 1\n\
+        property list uchar int vertex_indices\nelement vertex 3\nproperty float x\n\
+        property float y\nproperty float z\nproperty uchar red\nend_header\n"
+        .to_vec();
+    be.extend_from_slice(&[3, 0, 0, 0, 0, 0, 0, 0, 1, 0, 0, 0, 2]);
+    for v in [[0.0f32, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.5]] {
+        for c in v {
+            be.extend_from_slice(&c.to_be_bytes());
+        }
+        be.push(200);
+    }
+    write(&dir.join("face-first-be.ply"), &be);
+    write(
+        &dir.join("int-ascii.ply"),
+        b"ply\nformat ascii 1.0\ncomment ints\nelement range_grid 2\n\
+          property list uchar int vertex_indices\nelement vertex 3\nproperty int x\n\
+          property short y\nproperty uint z\nproperty double quality\nend_header\n\
+          1 0\n0\n1 2 3 0.5\n-4 5 6 nan\n7 -8 9 inf\n",
+    );
+}
+
+fn las_header(format: u8, version: (u8, u8), offset: f64) -> las::Header {
+    let mut b = Builder::from(version);
+    b.point_format = Format::new(format).expect("point format");
+    b.point_format.is_compressed = false;
+    let t = Transform {
+        scale: 0.001,
+        offset,
+    };
+    b.transforms = Vector { x: t, y: t, z: t };
+    b.into_header().expect("header")
+}
+
+fn las_points(format: u8) -> Vec<Point> {
+    let f = Format::new(format).expect("point format");
+    (0..40)
+        .map(|i| {
+            let t = f64::from(i);
+            Point {
+                x: 1000.0 + (t * 0.7).sin(),
+                y: 2000.0 + t * 0.01,
+                z: 10.0 + (t * 0.3).cos(),
+                intensity: i as u16 * 7,
+                return_number: 1,
+                number_of_returns: 1,
+                gps_time: f.has_gps_time.then_some(t * 0.5),
+                color: f.has_color.then_some(Color::new(i as u16, 3, 65535)),
+                nir: f.has_nir.then_some(17),
+                ..Default::default()
+            }
+        })
+        .collect()
+}
+
+fn las_seeds(dir: &Path) {
+    for (format, version) in [
+        (0, (1, 2)),
+        (1, (1, 2)),
+        (2, (1, 3)),
+        (3, (1, 2)),
+        (6, (1, 4)),
+        (7, (1, 4)),
+        (8, (1, 4)),
+    ] {
+        for compressed in [false, true] {
+            let mut header = las_header(format, version, 1000.0);
+            let ext = if compressed { "laz" } else { "las" };
+            if compressed {
+                let mut b = Builder::new(header.into_raw().expect("raw header")).expect("builder");
+                b.point_format.is_compressed = true;
+                header = b.into_header().expect("header");
+            }
+            let path = dir.join(format!("format{format}-{}.{}.{ext}", version.0, version.1));
+            let mut w = las::Writer::from_path(&path, header).expect("LAS writer");
+            for p in las_points(format) {
+                w.write_point(p).expect("write point");
+            }
+            w.close().expect("close");
+        }
+    }
+}
+
+fn xyz_seeds(dir: &Path) {
+    // Selector 0: .xyz, 1: .pts.
+    write_selected(dir, "plain.xyz", 0, b"0 0 0\n1 0 0\n0 1 0\n0 0 1.5\n");
+    write_selected(
+        dir,
+        "normals.xyz",
+        0,
+        b"# comment\n0,0,0,0,0,1\n1,0,0,0,0,1\n0.5;1;0;0;0;1\n",
+    );
+    write_selected(
+        dir,
+        "named.xyz",
+        0,
+        b"//X,Y,Z,R,G,B,Scalar field\n512345.123 4101234.567 12.5 255 0 0 0.25\n\
+          512345.124 4101234.568 12.6 0 255 0 nan\n",
+    );
+    write_selected(
+        dir,
+        "header.xyz",
+        0,
+        b"x y z intensity\n1e-3 2E3 -4.5 7\ninf 0 0 1\n",
+    );
+    write_selected(
+        dir,
+        "leica.pts",
+        1,
+        b"3\n0 0 0 -1204 10 20 30\n1 0 0 -1000 11 21 31\n0 1 0 200 12 22 32\n2\n5 5 5 1 2 3 4\n6 6 6 1 2 3 4\n",
+    );
+}
+
+fn mesh_seeds(dir: &Path) {
+    // Selector 0: .off, 1: .obj, 2: .ply.
+    let tet = "0 0 0\n1 0 0\n0 1 0\n0 0 1\n";
+    write_selected(
+        dir,
+        "tet.off",
+        0,
+        format!("OFF\n# tetrahedron\n4 4 6\n{tet}3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n").as_bytes(),
+    );
+    write_selected(
+        dir,
+        "quad.off",
+        0,
+        b"COFF 4 1 0\n0 0 0 255 0 0 255\n1 0 0 0 255 0 255\n1 1 0 0 0 255 255\n0 1 0 9 9 9 255\n4 0 1 2 3 1 2 3\n",
+    );
+    write_selected(
+        dir,
+        "tet.obj",
+        1,
+        b"# tet\nmtllib a.mtl\no tet\nv 0 0 0\nv 1 0 0\nv 0 1 0 1\nv 0 0 1\nvt 0 0\nvn 0 0 1\n\
+          f 1 3 2\nf 1/1 2/1 4/1\nf -4//1 -1//1 -2//1\nf 2/1/1 3/1/1 \\\n 4/1/1\nl 1 2\n",
+    );
+    write_selected(
+        dir,
+        "tet-ascii.ply",
+        2,
+        format!(
+            "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n\
+             property float z\nelement face 4\nproperty list uchar int vertex_indices\n\
+             end_header\n{tet}3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n"
+        )
+        .as_bytes(),
+    );
+    let mut bin = b"ply\nformat binary_little_endian 1.0\nelement vertex 4\nproperty double x\n\
+        property double y\nproperty double z\nelement tristrips 1\n\
+        property list int int vertex_indices\nend_header\n"
+        .to_vec();
+    for v in [
+        [0.0f64, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        [0.0, 0.0, 1.0],
+    ] {
+        for c in v {
+            bin.extend_from_slice(&c.to_le_bytes());
+        }
+    }
+    bin.extend_from_slice(&6i32.to_le_bytes());
+    for i in [0i32, 1, 2, 3, -1, 0] {
+        bin.extend_from_slice(&i.to_le_bytes());
+    }
+    write_selected(dir, "strips-bin.ply", 2, &bin);
+}
+
+fn config_seeds(root: &Path, dir: &Path) {
+    let reference = std::fs::read(root.join("pipeline.toml")).expect("cannot read pipeline.toml");
+    write(&dir.join("pipeline.toml"), &reference);
+    write(
+        &dir.join("short.toml"),
+        b"seed = 7\nthreads = 2\n[input]\npath = \"scan.laz\"\nnon_finite = \"drop\"\n\
+          [output]\nformat = \"laz\"\nclassify_edges = true\nedge_class = 20\n\
+          [features]\nradius = 0.5\nnoise = \"auto\"\n[fit.pso]\nw = 0.5\n\
+          [fit]\nrectify_with = \"exact\"\n",
+    );
+    write(
+        &dir.join("inline.toml"),
+        b"input = { path = \"a.ply\", sensors = [[0.0, 0.0, 5.0], [1, 2, 3]] }\n\
+          output.dir = \"res\"\nfit.pso.iterations_2d = 30\nedges.band = 2.5\n",
+    );
+}
