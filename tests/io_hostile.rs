@@ -177,6 +177,12 @@ fn xyz_header_of_20000_equal_names_is_refused_at_once() {
     text.push('\n');
     let p = write(dir.path(), "names.xyz", text.as_bytes());
     let e = message(quick(Duration::from_secs(2), || read(&p)), &p);
+    assert_contains(&e, &["line 1", "more than 1024 columns"]);
+    // Within the column limit, the equal names are named.
+    let mut text = vec!["a"; 1000].join(" ");
+    text.push('\n');
+    let p = write(dir.path(), "names1000.xyz", text.as_bytes());
+    let e = message(quick(Duration::from_secs(2), || read(&p)), &p);
     assert_contains(
         &e,
         &[
@@ -185,8 +191,9 @@ fn xyz_header_of_20000_equal_names_is_refused_at_once() {
             "rename one",
         ],
     );
-    // 20,000 distinct names that become equal once made PLY-safe are renamed, quickly.
-    let names: Vec<String> = (0..20_000)
+    // 1,024 distinct names (the most a line may have) that become equal once made PLY-safe
+    // are renamed, quickly.
+    let names: Vec<String> = (0..1024)
         .map(|i| {
             if i < 3 {
                 format!("c{i}")
@@ -197,13 +204,37 @@ fn xyz_header_of_20000_equal_names_is_refused_at_once() {
         .collect();
     let mut text = names.join(",");
     text.push('\n');
-    text.push_str(&vec!["1"; 20_000].join(","));
+    text.push_str(&vec!["1"; 1024].join(","));
     text.push('\n');
     let p = write(dir.path(), "renamed.xyz", text.as_bytes());
     let c = quick(Duration::from_secs(5), || read(&p)).unwrap();
-    assert_eq!(c.attributes.len(), 19_997);
+    assert_eq!(c.attributes.len(), 1021);
     assert_eq!(c.attributes[0].name, "a_b");
     assert_eq!(c.attributes[1].name, "a__b");
+}
+
+#[test]
+fn xyz_line_of_millions_of_columns_is_refused_before_allocating_per_column() {
+    // A 20 MB line of 10,000,000 numbers made an attribute per column: gigabytes.
+    let dir = tempfile::tempdir().unwrap();
+    let text = format!("1 2 3 {}\n", "4 ".repeat(10_000_000));
+    let p = write(dir.path(), "long.xyz", text.as_bytes());
+    refused(
+        &p,
+        &[
+            "line 1",
+            "more than 1024 columns",
+            "at most 1021 attributes",
+        ],
+    );
+    // The same as a header line of names.
+    let names: Vec<String> = (0..5000).map(|i| format!("c{i}")).collect();
+    let p = write(
+        dir.path(),
+        "names.xyz",
+        format!("{}\n", names.join(" ")).as_bytes(),
+    );
+    refused(&p, &["line 1", "more than 1024 columns"]);
 }
 
 // ---- LAS / LAZ ------------------------------------------------------------------------------

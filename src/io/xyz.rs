@@ -6,7 +6,7 @@
 //! `//X,Y,Z,R,G,B`) names the extra columns; without one, 6 columns are `x y z nx ny nz`
 //! (CGAL's .xyz/.pwn), Leica `.pts` files are `x y z intensity [red green blue]` with a point
 //! count line before the points, and other extra columns are `field_4`, `field_5`, ... (the
-//! 1-based column number). Extra columns are f64.
+//! 1-based column number). Extra columns are f64. A line has at most 1024 columns.
 //!
 //! Text holds as many digits as the writer chose, so the source counts as double precision
 //! when some coordinate has a finer decimal step than f32 keeps at that axis's magnitude
@@ -20,6 +20,23 @@ use super::{Loaded, PropertyInfo, attribute, f32_step};
 use crate::cloud::{Cloud, Column, Source};
 use crate::error::{Error, Result};
 use crate::progress::Progress;
+
+/// Most columns a line may have: x y z and 1021 attributes. Each column becomes an attribute
+/// with its name and its own array, a few hundred bytes before its first value, so without a
+/// bound a 20 MB line of 10,000,000 numbers asked for gigabytes.
+const MAX_COLUMNS: usize = 1024;
+
+fn too_many_columns(path: &Path, line_no: usize) -> Error {
+    Error::malformed(
+        path,
+        format!("line {line_no}"),
+        format!(
+            "more than {MAX_COLUMNS} columns: a point is x y z and at most {} attributes; is \
+             this a point list with one point per line?",
+            MAX_COLUMNS - 3
+        ),
+    )
+}
 
 fn tokens(line: &str) -> impl Iterator<Item = &str> {
     line.split(|c: char| c == ',' || c == ';' || c.is_ascii_whitespace())
@@ -168,7 +185,9 @@ pub(crate) fn read(path: &Path) -> Result<Loaded> {
         }
         let is_cc_header = trimmed.starts_with("//");
         let content = trimmed.trim_start_matches('/');
-        let words: Vec<&str> = tokens(content).collect();
+        // One more than allowed tells a line that has too many (checked below, once it is
+        // known whether commas separate names holding spaces).
+        let words: Vec<&str> = tokens(content).take(MAX_COLUMNS + 1).collect();
         if ncols == 0 && names.is_none() {
             // Before the first point: a line of names, or a .pts point count.
             let numeric = words.iter().all(|w| w.parse::<f64>().is_ok());
@@ -179,10 +198,14 @@ pub(crate) fn read(path: &Path) -> Result<Loaded> {
                         .split([',', ';'])
                         .map(str::trim)
                         .filter(|w| !w.is_empty())
+                        .take(MAX_COLUMNS + 1)
                         .collect()
                 } else {
                     words
                 };
+                if words.len() > MAX_COLUMNS {
+                    return Err(too_many_columns(path, line_no));
+                }
                 if words.len() < 3 {
                     return Err(Error::malformed(
                         path,
@@ -210,6 +233,9 @@ pub(crate) fn read(path: &Path) -> Result<Loaded> {
                 ncols = words.len();
                 continue;
             }
+        }
+        if words.len() > MAX_COLUMNS {
+            return Err(too_many_columns(path, line_no));
         }
         if pts && words.len() == 1 && words[0].parse::<u64>().is_ok() {
             continue; // a Leica PTS point count line (one per scan)
