@@ -17,6 +17,7 @@ use std::path::{Path, PathBuf};
 
 use las::{PointData, PointDataBuilder, Reader};
 
+use super::las_check::las_error;
 use super::{Loaded, PropertyInfo, attribute, f32_step};
 use crate::cloud::{Attribute, Cloud, Column, Source};
 use crate::error::{Error, Result};
@@ -26,53 +27,6 @@ use crate::progress::Progress;
 /// both cores on several LAZ chunks (50 000 points each by default), small enough to keep the
 /// slab in the tens of megabytes.
 const CHUNK: u64 = 1 << 18;
-
-/// True when the error comes from data ending too early (a short read somewhere below).
-fn is_short_read(e: &las::Error) -> bool {
-    if let las::Error::Io(io) = e {
-        return io.kind() == std::io::ErrorKind::UnexpectedEof;
-    }
-    let mut source = std::error::Error::source(e);
-    while let Some(s) = source {
-        if let Some(io) = s.downcast_ref::<std::io::Error>() {
-            return io.kind() == std::io::ErrorKind::UnexpectedEof;
-        }
-        source = s.source();
-    }
-    // The laz crate's error wraps the I/O error without exposing it as a source.
-    e.to_string().contains("failed to fill whole buffer")
-}
-
-pub(super) fn las_error(
-    path: &Path,
-    place: impl Into<String>,
-    in_header: bool,
-    e: las::Error,
-) -> Error {
-    // A failing disk is an I/O error of the file; a short or garbled file is malformed.
-    if let las::Error::Io(io) = &e
-        && !matches!(
-            io.kind(),
-            std::io::ErrorKind::UnexpectedEof | std::io::ErrorKind::InvalidData
-        )
-    {
-        return Error::io(
-            path,
-            "cannot read",
-            std::io::Error::new(io.kind(), io.to_string()),
-        );
-    }
-    let what = match (is_short_read(&e), in_header) {
-        (true, true) => "the file ends inside its header, records or LAZ chunk table: it is \
-                         truncated"
-            .to_string(),
-        (true, false) => "the point data ends early: the file is truncated or damaged, or \
-                          its header declares more points than it holds"
-            .to_string(),
-        (false, _) => format!("{e} (not a valid LAS/LAZ file, or a damaged one)"),
-    };
-    Error::malformed(path, place, what)
-}
 
 /// Runs a call into the las/laz crates, turning a panic into an error naming the file. laz
 /// 0.13 indexes its decoding tables with symbols decoded from the file without checking

@@ -26,7 +26,6 @@
 use std::io::{BufReader, Read, Seek, SeekFrom};
 use std::path::Path;
 
-use super::las::las_error;
 use crate::error::{Error, Result};
 
 /// The most points one compressed byte of a LAZ chunk may stand for. LASzip's arithmetic
@@ -403,4 +402,53 @@ fn check_layers<R: Read + Seek>(
         start += e.byte_count;
     }
     Ok(())
+}
+
+/// True when the error comes from data ending too early (a short read somewhere below).
+fn is_short_read(e: &las::Error) -> bool {
+    if let las::Error::Io(io) = e {
+        return io.kind() == std::io::ErrorKind::UnexpectedEof;
+    }
+    let mut source = std::error::Error::source(e);
+    while let Some(s) = source {
+        if let Some(io) = s.downcast_ref::<std::io::Error>() {
+            return io.kind() == std::io::ErrorKind::UnexpectedEof;
+        }
+        source = s.source();
+    }
+    // The laz crate's error wraps the I/O error without exposing it as a source.
+    e.to_string().contains("failed to fill whole buffer")
+}
+
+/// A las/laz error as the library's: an I/O failure of the disk, or a malformed file (short
+/// or garbled), placed at `place`.
+pub(super) fn las_error(
+    path: &Path,
+    place: impl Into<String>,
+    in_header: bool,
+    e: las::Error,
+) -> Error {
+    // A failing disk is an I/O error of the file; a short or garbled file is malformed.
+    if let las::Error::Io(io) = &e
+        && !matches!(
+            io.kind(),
+            std::io::ErrorKind::UnexpectedEof | std::io::ErrorKind::InvalidData
+        )
+    {
+        return Error::io(
+            path,
+            "cannot read",
+            std::io::Error::new(io.kind(), io.to_string()),
+        );
+    }
+    let what = match (is_short_read(&e), in_header) {
+        (true, true) => "the file ends inside its header, records or LAZ chunk table: it is \
+                         truncated"
+            .to_string(),
+        (true, false) => "the point data ends early: the file is truncated or damaged, or \
+                          its header declares more points than it holds"
+            .to_string(),
+        (false, _) => format!("{e} (not a valid LAS/LAZ file, or a damaged one)"),
+    };
+    Error::malformed(path, place, what)
 }
