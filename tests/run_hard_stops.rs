@@ -94,21 +94,20 @@ fn which(out: &Path, refs: &[Set; 2], what: &str) -> usize {
         .unwrap_or_else(|| panic!("{what}: the output set mixes two runs or is damaged"))
 }
 
+/// `sharpedge synth` of `part` with `points` points at noise 0.15, into DIR/NAME.
+fn scan(dir: &Path, name: &str, part: &str, points: &str, seed: &str) {
+    synth(
+        dir,
+        name,
+        &[
+            "--part", part, "--points", points, "--noise", "0.15", "--seed", seed,
+        ],
+    );
+}
+
 fn inputs(dir: &Path) {
-    synth(
-        dir,
-        "a.ply",
-        &[
-            "--part", "box", "--points", "300000", "--noise", "0.15", "--seed", "1",
-        ],
-    );
-    synth(
-        dir,
-        "b.ply",
-        &[
-            "--part", "lblock", "--points", "300000", "--noise", "0.15", "--seed", "2",
-        ],
-    );
+    scan(dir, "a.ply", "box", "300000", "1");
+    scan(dir, "b.ply", "lblock", "300000", "2");
     config(dir, "threads = 2\n");
 }
 
@@ -374,20 +373,8 @@ fn disk_full_during_write_fails_and_keeps_the_earlier_output() {
     let tmp = tempfile::tempdir().unwrap();
     let dir = tmp.path();
     config(dir, "threads = 2\n");
-    synth(
-        dir,
-        "small.ply",
-        &[
-            "--part", "box", "--points", "30000", "--noise", "0.15", "--seed", "1",
-        ],
-    );
-    synth(
-        dir,
-        "large.ply",
-        &[
-            "--part", "box", "--points", "200000", "--noise", "0.15", "--seed", "1",
-        ],
-    );
+    scan(dir, "small.ply", "box", "30000", "1");
+    scan(dir, "large.ply", "box", "200000", "1");
     // Room for the small run's outputs (about 1 MB) twice, not for the large one's (6 MB).
     let Some(disk) = Tmpfs::mount(&dir.join("disk"), 3 << 20) else {
         return;
