@@ -306,3 +306,41 @@ fn a_far_outlier_leaves_the_part_measured_and_its_edges_found() {
         assert!(d < 0.05, "corner {g:?} vs {w:?}");
     }
 }
+
+#[test]
+fn where_a_far_outlier_lies_changes_nothing_in_the_parts_edges_and_corners() {
+    // One point 1e12 above, 1e15 below or 1e30 above a part, or two of them: the neighbour
+    // grid's cells follow the part's radius whatever the cloud's extent, in coordinates
+    // local to the part, so the part's edges and corners are the same in every case. (With
+    // 2^21 cells over the box, local to its low corner, the part sat in one cell whose size
+    // and offsets depended on the outlier: the corners moved with it, and every radius
+    // query read the whole part.)
+    let c = Case::new();
+    let scan = synth(c.path(), "box.ply", SMALL_BOX);
+    let pts = read_cloud(&scan).positions;
+    let unit = run_ok(&c, "box.ply", "unit");
+    let with = |far: &[[f64; 3]], name: &str| {
+        let mut all = pts.clone();
+        all.extend_from_slice(far);
+        write_raw_ply(&c.path().join(format!("{name}.ply")), &all);
+        let rep = run_ok(&c, &format!("{name}.ply"), name);
+        (corners_scaled(&rep, 1.0), rep["edges"].clone())
+    };
+    let (above, edges) = with(&[[1e12, 1e12, 1e12]], "above");
+    assert_eq!(edges.as_array().unwrap().len(), 12);
+    for (far, name) in [
+        (&[[-1e15, -1e15, -1e15]][..], "below"),
+        (&[[1e30, 0.0, 1e30]], "beyond"),
+        (&[[-1e15, -1e15, -1e15], [1e30, 0.0, 1e30]], "both"),
+    ] {
+        let (corners, e) = with(far, name);
+        assert_eq!(corners, above, "{name}");
+        assert_eq!(e, edges, "{name}");
+    }
+    let want = corners_scaled(&unit, 1.0);
+    assert_eq!(above.len(), want.len());
+    for (g, w) in above.iter().zip(&want) {
+        let d = (0..3).map(|k| (g[k] - w[k]).powi(2)).sum::<f64>().sqrt();
+        assert!(d < 0.05, "corner {g:?} vs {w:?}");
+    }
+}
