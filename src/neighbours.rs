@@ -542,11 +542,44 @@ impl Knn {
 /// `sharpedge info` past two minutes). A power of two changes no rounding, so on any cloud
 /// whose distances f32 held before, every distance is bit for bit what it was. Centre and
 /// extent are the bulk's when a few far outliers would dominate them ([`frame`]).
+///
+/// When f32 merges many distinct positions into one (50,000 points within 1e-6 of each
+/// other in a part 100 wide: all at one f32 point, every query among them at distance 0
+/// from all of them, read all of them: `info` took 13 s on 51,000 points), the tree holds
+/// f64 coordinates instead ([`crowded_in_f32`]); other clouds keep f32 and their distances.
 pub struct KdTree {
     centre: [f64; 3],
     /// Local units per model unit (a power of two).
     scale: f64,
-    tree: ImmutableKdTree<f32, 3>,
+    tree: Tree,
+}
+
+enum Tree {
+    F32(ImmutableKdTree<f32, 3>),
+    F64(ImmutableKdTree<f64, 3>),
+}
+
+/// More distinct positions than this at one f32 point make the k-d tree use f64.
+const F32_CROWD: usize = 32;
+
+/// Whether more than [`F32_CROWD`] distinct `positions` share one point of `local` (their
+/// f32 coordinates), found by sorting the f32 points.
+fn crowded_in_f32(positions: &[[f64; 3]], local: &[[f32; 3]]) -> bool {
+    // + 0.0 turns −0 into +0: equal coordinates, equal bits.
+    let bits = |p: &[f32; 3]| p.map(|x| (x + 0.0).to_bits());
+    let mut ids: Vec<u32> = (0..local.len() as u32).collect();
+    ids.par_sort_unstable_by_key(|&i| bits(&local[i as usize]));
+    ids.chunk_by(|&a, &b| bits(&local[a as usize]) == bits(&local[b as usize]))
+        .filter(|group| group.len() > F32_CROWD)
+        .any(|group| {
+            let mut exact: Vec<[u64; 3]> = group
+                .iter()
+                .map(|&i| positions[i as usize].map(|x| (x + 0.0).to_bits()))
+                .collect();
+            exact.sort_unstable();
+            exact.dedup();
+            exact.len() > F32_CROWD
+        })
 }
 
 impl KdTree {
@@ -578,10 +611,19 @@ impl KdTree {
             .par_iter()
             .map(|p| [0, 1, 2].map(|k| ((p[k] - centre[k]) * scale).clamp(-far, far) as f32))
             .collect();
-        let tree = ImmutableKdTree::new_from_slice(&local).map_err(|e| Error::Degenerate {
+        let failed = |e| Error::Degenerate {
             what: "k-d tree",
             why: format!("{e:?}"),
-        })?;
+        };
+        let tree = if crowded_in_f32(positions, &local) {
+            let local: Vec<[f64; 3]> = positions
+                .par_iter()
+                .map(|p| [0, 1, 2].map(|k| ((p[k] - centre[k]) * scale).clamp(-far, far)))
+                .collect();
+            Tree::F64(ImmutableKdTree::new_from_slice(&local).map_err(failed)?)
+        } else {
+            Tree::F32(ImmutableKdTree::new_from_slice(&local).map_err(failed)?)
+        };
         Ok(KdTree {
             centre,
             scale,
@@ -594,14 +636,23 @@ impl KdTree {
         let Some(k) = NonZeroUsize::new(k) else {
             return Vec::new();
         };
-        let ql = [0, 1, 2].map(|j| ((q[j] - self.centre[j]) * self.scale) as f32);
-        self.tree
-            .query(&ql)
-            .nearest_n::<SquaredEuclidean<f32>>(k)
-            .execute()
-            .into_iter()
-            .map(|r| (r.item, f64::from(r.distance).sqrt() / self.scale))
-            .collect()
+        let ql = [0, 1, 2].map(|j| (q[j] - self.centre[j]) * self.scale);
+        match &self.tree {
+            Tree::F32(tree) => tree
+                .query(&ql.map(|x| x as f32))
+                .nearest_n::<SquaredEuclidean<f32>>(k)
+                .execute()
+                .into_iter()
+                .map(|r| (r.item, f64::from(r.distance).sqrt() / self.scale))
+                .collect(),
+            Tree::F64(tree) => tree
+                .query(&ql)
+                .nearest_n::<SquaredEuclidean<f64>>(k)
+                .execute()
+                .into_iter()
+                .map(|r| (r.item, r.distance.sqrt() / self.scale))
+                .collect(),
+        }
     }
 }
 
@@ -1180,6 +1231,41 @@ mod tests {
                         assert!((g.1 / s - w.1).abs() <= 1e-5, "scale {s:e}, point {i}");
                     }
                 }
+            }
+        }
+    }
+
+    #[test]
+    fn kd_tree_tells_apart_thousands_of_points_within_a_billionth() {
+        // 3,000 distinct points within 1e-9 of one point of a part 10 wide round to a few f32
+        // points: the f32 tree put them all at distance 0 from each other, and every query
+        // among them read all of them. Their nearest neighbours must be the true ones.
+        let mut pts = random_cloud(2000, 53, 10.0, 0.0);
+        let c = pts[7];
+        pts.extend(
+            random_cloud(3000, 54, 1e-9, 0.0)
+                .iter()
+                .map(|d| [c[0] + d[0], c[1] + d[1], c[2] + d[2]]),
+        );
+        let tree = KdTree::new(&pts).unwrap();
+        for i in (2000..pts.len()).step_by(71).chain([7, 100]) {
+            let mut all: Vec<(u32, f64)> = (0..pts.len() as u32)
+                .map(|j| {
+                    let d2: f64 = (0..3)
+                        .map(|k| (pts[j as usize][k] - pts[i][k]).powi(2))
+                        .sum();
+                    (j, d2.sqrt())
+                })
+                .collect();
+            all.sort_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)));
+            let got = tree.nearest(pts[i], 4);
+            assert_eq!(got[0], (i as u32, 0.0), "point {i}");
+            for (g, w) in got.iter().zip(&all).skip(1) {
+                assert!(
+                    (g.1 - w.1).abs() <= 1e-12 * w.1.max(1.0),
+                    "point {i}: {g:?} vs {w:?}"
+                );
+                assert!(g.1 > 0.0, "point {i}");
             }
         }
     }
