@@ -344,3 +344,35 @@ fn where_a_far_outlier_lies_changes_nothing_in_the_parts_edges_and_corners() {
         assert!(d < 0.05, "corner {g:?} vs {w:?}");
     }
 }
+
+#[test]
+fn near_copies_of_one_point_leave_the_parts_spacing_edges_and_corners() {
+    // 5,000 distinct points within 1e-9 of one point of the part: the k-d tree's f32
+    // coordinates merged them into one (every query among them read all of them); in f64
+    // their nearest distances are a billion times below the spacing and are left out of it.
+    let c = Case::new();
+    let scan = synth(c.path(), "box.ply", SMALL_BOX);
+    let mut pts = read_cloud(&scan).positions;
+    let unit = run_ok(&c, "box.ply", "unit");
+    let spacing = |file: &str| info_json(c.path(), file)["mean_spacing"].as_f64().unwrap();
+    let at = pts[100];
+    pts.extend((0..5000).map(|i| {
+        let t = f64::from(i) / 5000.0;
+        [
+            at[0] + 1e-9 * t,
+            at[1] + 1e-9 * (7.0 * t).fract(),
+            at[2] + 1e-9 * (13.0 * t).fract(),
+        ]
+    }));
+    write_raw_ply(&c.path().join("near.ply"), &pts);
+    let (got, want) = (spacing("near.ply"), spacing("box.ply"));
+    assert!((got - want).abs() < 1e-3 * want, "{got} vs {want}");
+    let rep = run_ok(&c, "near.ply", "near");
+    assert_eq!(rep["edges"].as_array().unwrap().len(), 12);
+    let (got, want) = (corners_scaled(&rep, 1.0), corners_scaled(&unit, 1.0));
+    assert_eq!(got.len(), want.len());
+    for (g, w) in got.iter().zip(&want) {
+        let d = (0..3).map(|k| (g[k] - w[k]).powi(2)).sum::<f64>().sqrt();
+        assert!(d < 0.1, "corner {g:?} vs {w:?}");
+    }
+}
