@@ -969,6 +969,37 @@ mod tests {
             .collect()
     }
 
+    /// Every point as (id, distance to `q`), nearest first, ties by id.
+    fn brute_nearest(pts: &[[f64; 3]], q: [f64; 3]) -> Vec<(u32, f64)> {
+        let mut all: Vec<(u32, f64)> = (0..pts.len() as u32)
+            .map(|j| {
+                let d2: f64 = (0..3).map(|k| (pts[j as usize][k] - q[k]).powi(2)).sum();
+                (j, d2.sqrt())
+            })
+            .collect();
+        all.sort_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)));
+        all
+    }
+
+    /// The ids of the points within `reach` of the segment `a`–`b`, sorted.
+    fn brute_near_segment(pts: &[[f64; 3]], a: [f64; 3], b: [f64; 3], reach: f64) -> Vec<u32> {
+        (0..pts.len() as u32)
+            .filter(|&i| {
+                let p = pts[i as usize];
+                let ab = [0, 1, 2].map(|k| b[k] - a[k]);
+                let ap = [0, 1, 2].map(|k| p[k] - a[k]);
+                let l2: f64 = ab.iter().map(|x| x * x).sum();
+                let t = if l2 > 0.0 {
+                    (0..3).map(|k| ab[k] * ap[k]).sum::<f64>() / l2
+                } else {
+                    0.0
+                };
+                let t = t.clamp(0.0, 1.0);
+                (0..3).map(|k| (ap[k] - t * ab[k]).powi(2)).sum::<f64>() <= reach * reach
+            })
+            .collect()
+    }
+
     #[test]
     fn grid_radius_query_matches_brute_force() {
         let pts = random_cloud(3000, 7, 10.0, 0.0);
@@ -1030,21 +1061,7 @@ mod tests {
             got.sort_unstable();
             got.dedup();
             assert_eq!(n, got.len(), "a point was visited twice");
-            let want: Vec<u32> = (0..pts.len() as u32)
-                .filter(|&i| {
-                    let p = pts[i as usize];
-                    let ab: Vec<f64> = (0..3).map(|k| b[k] - a[k]).collect();
-                    let ap: Vec<f64> = (0..3).map(|k| p[k] - a[k]).collect();
-                    let l2: f64 = ab.iter().map(|x| x * x).sum();
-                    let t = if l2 > 0.0 {
-                        (0..3).map(|k| ab[k] * ap[k]).sum::<f64>() / l2
-                    } else {
-                        0.0
-                    };
-                    let t = t.clamp(0.0, 1.0);
-                    (0..3).map(|k| (ap[k] - t * ab[k]).powi(2)).sum::<f64>() <= reach * reach
-                })
-                .collect();
+            let want = brute_near_segment(pts, a, b, reach);
             assert_eq!(got, want, "segment {a:?}-{b:?} reach {reach}");
         }
     }
@@ -1109,16 +1126,7 @@ mod tests {
                 let mut got = Vec::new();
                 grid.for_each_near_segment(a, b, reach, |i| got.push(i));
                 got.sort_unstable();
-                let want: Vec<u32> = (0..pts.len() as u32)
-                    .filter(|&i| {
-                        let p = pts[i as usize];
-                        let ab = [0, 1, 2].map(|k| b[k] - a[k]);
-                        let ap = [0, 1, 2].map(|k| p[k] - a[k]);
-                        let l2: f64 = ab.iter().map(|x| x * x).sum();
-                        let t = ((0..3).map(|k| ab[k] * ap[k]).sum::<f64>() / l2).clamp(0.0, 1.0);
-                        (0..3).map(|k| (ap[k] - t * ab[k]).powi(2)).sum::<f64>() <= reach * reach
-                    })
-                    .collect();
+                let want = brute_near_segment(&pts, a, b, reach);
                 assert_eq!(got, want, "segment to {b:?}");
             }
         }
@@ -1153,16 +1161,10 @@ mod tests {
         let k = 6;
         let nn = knn(&pts, k).unwrap();
         for i in (0..pts.len()).step_by(17) {
-            let mut all: Vec<(u32, f64)> = (0..pts.len() as u32)
-                .filter(|&j| j as usize != i)
-                .map(|j| {
-                    let d2: f64 = (0..3)
-                        .map(|c| (pts[j as usize][c] - pts[i][c]).powi(2))
-                        .sum();
-                    (j, d2.sqrt())
-                })
+            let all: Vec<(u32, f64)> = brute_nearest(&pts, pts[i])
+                .into_iter()
+                .filter(|&(j, _)| j as usize != i)
                 .collect();
-            all.sort_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)));
             let want: Vec<u32> = all[..k].iter().map(|x| x.0).collect();
             assert_eq!(nn.of(i), &want[..], "point {i}");
             for (a, b) in nn.dist[i * k..(i + 1) * k].iter().zip(&all[..k]) {
@@ -1252,15 +1254,7 @@ mod tests {
         );
         let tree = KdTree::new(&pts).unwrap();
         for i in (2000..pts.len()).step_by(71).chain([7, 100]) {
-            let mut all: Vec<(u32, f64)> = (0..pts.len() as u32)
-                .map(|j| {
-                    let d2: f64 = (0..3)
-                        .map(|k| (pts[j as usize][k] - pts[i][k]).powi(2))
-                        .sum();
-                    (j, d2.sqrt())
-                })
-                .collect();
-            all.sort_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)));
+            let all = brute_nearest(&pts, pts[i]);
             let got = tree.nearest(pts[i], 4);
             assert_eq!(got[0], (i as u32, 0.0), "point {i}");
             for (g, w) in got.iter().zip(&all).skip(1) {
