@@ -20,11 +20,30 @@ use rayon::prelude::*;
 
 use crate::error::{Error, Result};
 
+/// A packed cell key: three cell coordinates of up to 2^42 + 1 values each.
+type Key = u128;
+
+/// Cell coordinates are clamped to ±this many cells around the grid's origin.
+const FAR_CELL: i64 = 1 << 41;
+
+/// The widest bulk (in cells) that keeps the asked cell size.
+const BULK_CELLS: f64 = (1u64 << 40) as f64;
+
+/// The cell coordinate of a local coordinate `x`: ⌊x / cell⌋, clamped to ±[`FAR_CELL`].
+/// Monotone, and moves by no more than the true coordinate, so a query's cells still hold
+/// every point within its radius.
+#[inline]
+fn cell_coord(x: f64, cell: f64) -> i64 {
+    (x / cell).floor().clamp(-FAR_CELL as f64, FAR_CELL as f64) as i64
+}
+
 /// Points bucketed in cubic cells of side `cell`. Radius queries with `r <= cell` look at the
 /// 27 cells around the query, wider ones as many rings of cells as they need.
 pub struct Grid {
     origin: [f64; 3],
     cell: f64,
+    /// Cell coordinates (from [`cell_coord`]) of the first cell of each axis.
+    base: [i64; 3],
     dims: [u64; 3],
     layout: Layout,
     /// Point ids in cell order (x fastest, then y, then z).
@@ -52,7 +71,7 @@ enum Layout {
     /// row's few cells instead of binary-searching all of them (the search took 40 % of the
     /// features stage on a 1,000,000-point box).
     Sparse {
-        keys: Vec<u64>,
+        keys: Vec<Key>,
         starts: Vec<u32>,
         rows: Option<Vec<u32>>,
     },
@@ -95,21 +114,35 @@ impl Grid {
                 hi[k] = hi[k].max(p[k]);
             }
         }
-        // 21 bits per axis keeps the packed key in a u64; coarser cells only cost speed.
+        // Cells follow the asked size whatever the cloud's extent: coordinates are local to
+        // the box's low corner, or to the bulk's centre when a few far points make the box
+        // over 1,000 times wider than the bulk ([`bulk_frame`]); cell coordinates are clamped
+        // to ±2^41 cells around that origin, so far points share the outermost cells while
+        // the part keeps cells as small as its radius (with 2^21 cells a side over the box, a
+        // part beside a point 1e12 away sat in one cell and every radius query read all of
+        // it: the features stage took 16 s on 100,000 points). Only a bulk spanning more
+        // than 2^40 cells gets coarser cells, which cost speed, never results.
         let mut cell = cell;
-        let max_extent = (0..3).map(|k| hi[k] - lo[k]).fold(0.0, f64::max);
-        if max_extent / cell > ((1u64 << 21) - 2) as f64 {
-            cell = max_extent / ((1u64 << 21) - 2) as f64;
-        }
-        let dims = [0, 1, 2].map(|k| ((hi[k] - lo[k]) / cell).floor() as u64 + 1);
-        let origin = lo;
-        let cell_of = |p: &[f64; 3]| -> [u64; 3] {
-            [0, 1, 2].map(|k| (((p[k] - origin[k]) / cell) as u64).min(dims[k] - 1))
+        let (origin, extent) = match bulk_frame(positions, lo, hi) {
+            Some((centre, half)) => (centre, 2.0 * half),
+            None => (lo, (0..3).map(|k| hi[k] - lo[k]).fold(0.0, f64::max)),
         };
-        let key_of = |c: [u64; 3]| (c[2] * dims[1] + c[1]) * dims[0] + c[0];
-        let keys: Vec<u64> = positions.par_iter().map(|p| key_of(cell_of(p))).collect();
-        let ncell = dims[0].saturating_mul(dims[1]).saturating_mul(dims[2]);
-        let dense = ncell <= (4 * positions.len() as u64).max(1 << 20);
+        if extent / cell > BULK_CELLS {
+            cell = extent / BULK_CELLS;
+        }
+        let base = [0, 1, 2].map(|k| cell_coord(lo[k] - origin[k], cell));
+        let dims = [0, 1, 2].map(|k| (cell_coord(hi[k] - origin[k], cell) - base[k]) as u64 + 1);
+        let cell_of = |p: &[f64; 3]| -> [u64; 3] {
+            [0, 1, 2].map(|k| {
+                ((cell_coord(p[k] - origin[k], cell) - base[k]).max(0) as u64).min(dims[k] - 1)
+            })
+        };
+        let key_of = |c: [u64; 3]| {
+            (c[2] as Key * dims[1] as Key + c[1] as Key) * dims[0] as Key + c[0] as Key
+        };
+        let keys: Vec<Key> = positions.par_iter().map(|p| key_of(cell_of(p))).collect();
+        let ncell = dims[0] as Key * dims[1] as Key * dims[2] as Key;
+        let dense = ncell <= (4 * positions.len() as Key).max(1 << 20);
 
         // Counting sort when dense; a stable sort by key otherwise. Both give the same order
         // (by key, ties by point id), so results never depend on the layout.
@@ -141,12 +174,12 @@ impl Grid {
                 }
             }
             starts.push(ids.len() as u32);
-            let nrows = dims[1].saturating_mul(dims[2]);
-            let rows = (nrows <= (4 * positions.len() as u64).max(1 << 20)).then(|| {
+            let nrows = dims[1] as Key * dims[2] as Key;
+            let rows = (nrows <= (4 * positions.len() as Key).max(1 << 20)).then(|| {
                 let mut rows = vec![0u32; nrows as usize + 1];
                 let mut next = 0usize;
                 for (row, slot) in rows.iter_mut().enumerate() {
-                    while next < ukeys.len() && ukeys[next] / dims[0] < row as u64 {
+                    while next < ukeys.len() && ukeys[next] / (dims[0] as Key) < row as Key {
                         next += 1;
                     }
                     *slot = next as u32;
@@ -172,6 +205,7 @@ impl Grid {
         Ok(Grid {
             origin,
             cell,
+            base,
             dims,
             layout,
             ids,
@@ -196,11 +230,11 @@ impl Grid {
     }
 
     /// The occupied cells in key order: (key, first slot, end slot).
-    fn occupied(&self) -> Vec<(u64, usize, usize)> {
+    fn occupied(&self) -> Vec<(Key, usize, usize)> {
         match &self.layout {
             Layout::Dense { starts } => (0..starts.len() - 1)
                 .filter(|&c| starts[c] < starts[c + 1])
-                .map(|c| (c as u64, starts[c] as usize, starts[c + 1] as usize))
+                .map(|c| (c as Key, starts[c] as usize, starts[c + 1] as usize))
                 .collect(),
             Layout::Sparse { keys, starts, .. } => (0..keys.len())
                 .map(|i| (keys[i], starts[i] as usize, starts[i + 1] as usize))
@@ -218,9 +252,27 @@ impl Grid {
     }
 
     /// The cell coordinates of a key.
-    fn cell_of_key(&self, key: u64) -> [u64; 3] {
-        let (d0, d1) = (self.dims[0], self.dims[1]);
-        [key % d0, (key / d0) % d1, key / (d0 * d1)]
+    fn cell_of_key(&self, key: Key) -> [u64; 3] {
+        let (d0, d1) = (self.dims[0] as Key, self.dims[1] as Key);
+        [key % d0, (key / d0) % d1, key / (d0 * d1)].map(|c| c as u64)
+    }
+
+    /// The key of the first cell of row (`y`, `z`).
+    #[inline]
+    fn row_key(&self, y: i64, z: i64) -> Key {
+        (z as Key * self.dims[1] as Key + y as Key) * self.dims[0] as Key
+    }
+
+    /// The cell coordinates (not clamped to the grid's cells) of a local point.
+    #[inline]
+    fn query_cell(&self, ql: [f64; 3]) -> [i64; 3] {
+        [0, 1, 2].map(|k| cell_coord(ql[k], self.cell) - self.base[k])
+    }
+
+    /// Whether a cell is one of the outermost ones far points are clamped into (its points
+    /// may lie anywhere beyond it).
+    fn clamped(&self, c: [u64; 3]) -> bool {
+        (0..3).any(|k| (c[k] as i64 + self.base[k]).abs() >= FAR_CELL)
     }
 
     /// Every occupied cell in slot order, with the slot ranges of the 27 cells around it:
@@ -237,8 +289,8 @@ impl Grid {
                 let mut nrows = 0;
                 for z in (c[2] - 1).max(0)..=(c[2] + 1).min(self.dims[2] as i64 - 1) {
                     for y in (c[1] - 1).max(0)..=(c[1] + 1).min(self.dims[1] as i64 - 1) {
-                        let row = (z as u64 * self.dims[1] + y as u64) * self.dims[0];
-                        let (s0, s1) = self.slots(row + x0 as u64, row + x1 as u64);
+                        let row = self.row_key(y, z);
+                        let (s0, s1) = self.slots(row + x0 as Key, row + x1 as Key);
                         if s0 < s1 {
                             rows[nrows] = (s0 as u32, s1 as u32);
                             nrows += 1;
@@ -316,7 +368,7 @@ impl Grid {
         } else {
             (r / self.cell).ceil() as i64
         };
-        let c = [0, 1, 2].map(|k| (ql[k] / self.cell).floor() as i64);
+        let c = self.query_cell(ql);
         let lo = [0, 1, 2].map(|k| c[k].saturating_sub(span).max(0));
         let hi = [0, 1, 2].map(|k| c[k].saturating_add(span).min(self.dims[k] as i64 - 1));
         if (0..3).any(|k| lo[k] > hi[k]) {
@@ -326,8 +378,8 @@ impl Grid {
         // measures a radius as wide as the cloud, and a cloud 1e12 wide has 2^21 cells a
         // side): visit the occupied cells in order instead of every row. Same calls, same
         // order (cells by key, then point id).
-        let rows = (hi[2] - lo[2] + 1) as u128 * (hi[1] - lo[1] + 1) as u128;
-        if rows > self.stored_cells() as u128 {
+        let rows = (hi[2] - lo[2] + 1) as Key * (hi[1] - lo[1] + 1) as Key;
+        if rows > self.stored_cells() as Key {
             for (key, s0, s1) in self.occupied() {
                 let cell = self.cell_of_key(key);
                 if (0..3).all(|k| (lo[k]..=hi[k]).contains(&(cell[k] as i64))) {
@@ -338,8 +390,8 @@ impl Grid {
         }
         for z in lo[2]..=hi[2] {
             for y in lo[1]..=hi[1] {
-                let row = (z as u64 * self.dims[1] + y as u64) * self.dims[0];
-                let (a, b) = self.slots(row + lo[0] as u64, row + hi[0] as u64);
+                let row = self.row_key(y, z);
+                let (a, b) = self.slots(row + lo[0] as Key, row + hi[0] as Key);
                 self.scan(a..b, ql, r2, &mut f);
             }
         }
@@ -398,14 +450,15 @@ impl Grid {
         if work > self.stored_cells() as f64 {
             let near = reach + self.cell * 0.87;
             for (key, s0, s1) in self.occupied() {
-                let m = self.cell_of_key(key).map(|c| (c as f64 + 0.5) * self.cell);
-                if dist2(m).sqrt() <= near {
+                let c = self.cell_of_key(key);
+                let m = [0, 1, 2].map(|k| ((c[k] as i64 + self.base[k]) as f64 + 0.5) * self.cell);
+                if self.clamped(c) || dist2(m).sqrt() <= near {
                     visit(s0, s1);
                 }
             }
             return;
         }
-        let mut rows: Vec<(u64, i64, i64)> = Vec::new(); // (row key base, x0, x1)
+        let mut rows: Vec<(Key, i64, i64)> = Vec::new(); // (row key base, x0, x1)
         for s in 0..=steps {
             let u = if steps == 0 {
                 0.0
@@ -413,7 +466,7 @@ impl Grid {
                 s as f64 / steps as f64
             };
             let q = [0, 1, 2].map(|k| la[k] + u * ab[k]);
-            let c = [0, 1, 2].map(|k| (q[k] / self.cell).floor() as i64);
+            let c = self.query_cell(q);
             let x0 = (c[0] - span).max(0);
             let x1 = (c[0] + span).min(self.dims[0] as i64 - 1);
             if x0 > x1 {
@@ -421,13 +474,13 @@ impl Grid {
             }
             for z in (c[2] - span).max(0)..=(c[2] + span).min(self.dims[2] as i64 - 1) {
                 for y in (c[1] - span).max(0)..=(c[1] + span).min(self.dims[1] as i64 - 1) {
-                    rows.push(((z as u64 * self.dims[1] + y as u64) * self.dims[0], x0, x1));
+                    rows.push((self.row_key(y, z), x0, x1));
                 }
             }
         }
         // Merge the x ranges of each row so no cell is visited twice.
         rows.sort_unstable();
-        let mut merged: Vec<(u64, i64, i64)> = Vec::with_capacity(rows.len());
+        let mut merged: Vec<(Key, i64, i64)> = Vec::with_capacity(rows.len());
         for (row, x0, x1) in rows {
             match merged.last_mut() {
                 Some(m) if m.0 == row && x0 <= m.2 + 1 => m.2 = m.2.max(x1),
@@ -435,14 +488,14 @@ impl Grid {
             }
         }
         for (row, x0, x1) in merged {
-            let (s0, s1) = self.slots(row + x0 as u64, row + x1 as u64);
+            let (s0, s1) = self.slots(row + x0 as Key, row + x1 as Key);
             visit(s0, s1);
         }
     }
 
     /// Slot range covering the cells with keys `k0..=k1` (consecutive in one x row).
     #[inline]
-    fn slots(&self, k0: u64, k1: u64) -> (usize, usize) {
+    fn slots(&self, k0: Key, k1: Key) -> (usize, usize) {
         match &self.layout {
             Layout::Dense { starts } => (
                 starts[k0 as usize] as usize,
@@ -452,7 +505,7 @@ impl Grid {
                 // Within one row (k0 and k1 always share one): its cells only.
                 let (lo, hi) = match rows {
                     Some(rows) => {
-                        let row = (k0 / self.dims[0]) as usize;
+                        let row = (k0 / self.dims[0] as Key) as usize;
                         (rows[row] as usize, rows[row + 1] as usize)
                     }
                     None => (0, keys.len()),
@@ -489,11 +542,44 @@ impl Knn {
 /// `sharpedge info` past two minutes). A power of two changes no rounding, so on any cloud
 /// whose distances f32 held before, every distance is bit for bit what it was. Centre and
 /// extent are the bulk's when a few far outliers would dominate them ([`frame`]).
+///
+/// When f32 merges many distinct positions into one (50,000 points within 1e-6 of each
+/// other in a part 100 wide: all at one f32 point, every query among them at distance 0
+/// from all of them, read all of them: `info` took 13 s on 51,000 points), the tree holds
+/// f64 coordinates instead ([`crowded_in_f32`]); other clouds keep f32 and their distances.
 pub struct KdTree {
     centre: [f64; 3],
     /// Local units per model unit (a power of two).
     scale: f64,
-    tree: ImmutableKdTree<f32, 3>,
+    tree: Tree,
+}
+
+enum Tree {
+    F32(ImmutableKdTree<f32, 3>),
+    F64(ImmutableKdTree<f64, 3>),
+}
+
+/// More distinct positions than this at one f32 point make the k-d tree use f64.
+const F32_CROWD: usize = 32;
+
+/// Whether more than [`F32_CROWD`] distinct `positions` share one point of `local` (their
+/// f32 coordinates), found by sorting the f32 points.
+fn crowded_in_f32(positions: &[[f64; 3]], local: &[[f32; 3]]) -> bool {
+    // + 0.0 turns −0 into +0: equal coordinates, equal bits.
+    let bits = |p: &[f32; 3]| p.map(|x| (x + 0.0).to_bits());
+    let mut ids: Vec<u32> = (0..local.len() as u32).collect();
+    ids.par_sort_unstable_by_key(|&i| bits(&local[i as usize]));
+    ids.chunk_by(|&a, &b| bits(&local[a as usize]) == bits(&local[b as usize]))
+        .filter(|group| group.len() > F32_CROWD)
+        .any(|group| {
+            let mut exact: Vec<[u64; 3]> = group
+                .iter()
+                .map(|&i| positions[i as usize].map(|x| (x + 0.0).to_bits()))
+                .collect();
+            exact.sort_unstable();
+            exact.dedup();
+            exact.len() > F32_CROWD
+        })
 }
 
 impl KdTree {
@@ -525,10 +611,19 @@ impl KdTree {
             .par_iter()
             .map(|p| [0, 1, 2].map(|k| ((p[k] - centre[k]) * scale).clamp(-far, far) as f32))
             .collect();
-        let tree = ImmutableKdTree::new_from_slice(&local).map_err(|e| Error::Degenerate {
+        let failed = |e| Error::Degenerate {
             what: "k-d tree",
             why: format!("{e:?}"),
-        })?;
+        };
+        let tree = if crowded_in_f32(positions, &local) {
+            let local: Vec<[f64; 3]> = positions
+                .par_iter()
+                .map(|p| [0, 1, 2].map(|k| ((p[k] - centre[k]) * scale).clamp(-far, far)))
+                .collect();
+            Tree::F64(ImmutableKdTree::new_from_slice(&local).map_err(failed)?)
+        } else {
+            Tree::F32(ImmutableKdTree::new_from_slice(&local).map_err(failed)?)
+        };
         Ok(KdTree {
             centre,
             scale,
@@ -541,27 +636,47 @@ impl KdTree {
         let Some(k) = NonZeroUsize::new(k) else {
             return Vec::new();
         };
-        let ql = [0, 1, 2].map(|j| ((q[j] - self.centre[j]) * self.scale) as f32);
-        self.tree
-            .query(&ql)
-            .nearest_n::<SquaredEuclidean<f32>>(k)
-            .execute()
-            .into_iter()
-            .map(|r| (r.item, f64::from(r.distance).sqrt() / self.scale))
-            .collect()
+        let ql = [0, 1, 2].map(|j| (q[j] - self.centre[j]) * self.scale);
+        match &self.tree {
+            Tree::F32(tree) => tree
+                .query(&ql.map(|x| x as f32))
+                .nearest_n::<SquaredEuclidean<f32>>(k)
+                .execute()
+                .into_iter()
+                .map(|r| (r.item, f64::from(r.distance).sqrt() / self.scale))
+                .collect(),
+            Tree::F64(tree) => tree
+                .query(&ql)
+                .nearest_n::<SquaredEuclidean<f64>>(k)
+                .execute()
+                .into_iter()
+                .map(|r| (r.item, r.distance.sqrt() / self.scale))
+                .collect(),
+        }
     }
 }
 
 /// The centre and half extent the k-d tree's local coordinates are taken in: the bounding
-/// box's, unless the bulk of the points (the 1st to 99th percentile per axis, on at most
-/// 4,096 evenly spread points) is over 1,000 times smaller than the box. Then a few far
-/// points (one outlier 1e12 away from a 100-unit part) would leave the part a few f32 steps
-/// wide, piled in a handful of leaves that every query reads (`info` took 34 s on such a
-/// 100,000-point cloud), so the bulk's centre and extent are used instead. Clouds without
-/// such outliers keep the box's, and so their distances.
+/// box's, unless a few far points dominate it ([`bulk_frame`]).
 fn frame(positions: &[[f64; 3]], lo: [f64; 3], hi: [f64; 3]) -> ([f64; 3], f64) {
-    // Halves first: lo + hi overflows for coordinates beyond ±9e307.
-    let centre = [0, 1, 2].map(|k| 0.5 * lo[k] + 0.5 * hi[k]);
+    bulk_frame(positions, lo, hi).unwrap_or_else(|| {
+        // Halves first: lo + hi overflows for coordinates beyond ±9e307.
+        let centre = [0, 1, 2].map(|k| 0.5 * lo[k] + 0.5 * hi[k]);
+        let half = (0..3)
+            .map(|k| 0.5 * hi[k] - 0.5 * lo[k])
+            .fold(0.0, f64::max);
+        (centre, half)
+    })
+}
+
+/// The centre and half extent of the bulk of the points (the 1st to 99th percentile per
+/// axis, on at most 4,096 evenly spread points) when it is over 1,000 times smaller than the
+/// bounding box `lo`..`hi`, `None` otherwise. Then a few far points (one outlier 1e12 away
+/// from a 100-unit part) would leave the part a few f32 steps wide in the k-d tree, piled in
+/// a handful of leaves that every query reads (`info` took 34 s on such a 100,000-point
+/// cloud), and in one cell of the neighbour grid. Clouds without such outliers keep the
+/// box's frame, and so their distances.
+fn bulk_frame(positions: &[[f64; 3]], lo: [f64; 3], hi: [f64; 3]) -> Option<([f64; 3], f64)> {
     let half = (0..3)
         .map(|k| 0.5 * hi[k] - 0.5 * lo[k])
         .fold(0.0, f64::max);
@@ -576,11 +691,7 @@ fn frame(positions: &[[f64; 3]], lo: [f64; 3], hi: [f64; 3]) -> ([f64; 3], f64) 
         bulk_centre[k] = 0.5 * a + 0.5 * b;
         bulk_half = bulk_half.max(0.5 * b - 0.5 * a);
     }
-    if bulk_half > 0.0 && half > 1000.0 * bulk_half {
-        (bulk_centre, bulk_half)
-    } else {
-        (centre, half)
-    }
+    (bulk_half > 0.0 && half > 1000.0 * bulk_half).then_some((bulk_centre, bulk_half))
 }
 
 /// A 64-bit mix of a position's coordinate bits (splitmix64's finaliser over each word in
@@ -817,19 +928,22 @@ pub fn mean_spacing_in(tree: &KdTree, positions: &[[f64; 3]], max_samples: usize
     }
     // Samples over FAR_SAMPLE times the median are isolated points, left out of the mean: one
     // point 1e12 away from a 20,000-point box made the mean 8.7e7 and the line check called
-    // the box a line. On clouds without such points the mean is what it was.
+    // the box a line. Samples under the median over FAR_SAMPLE are near-copies, left out
+    // too: 5,000 points within 1e-9 of one point of a 20,000-point box (which the f32 k-d
+    // tree could not tell apart, and so dropped) made the mean 0.87 for the box's 1.09. On
+    // clouds without such points the mean is what it was.
     let mut sorted = dists.clone();
     let mid = sorted.len() / 2;
     let median = *sorted.select_nth_unstable_by(mid, f64::total_cmp).1;
     let kept: Vec<f64> = dists
         .into_iter()
-        .filter(|&d| d <= FAR_SAMPLE * median)
+        .filter(|&d| d <= FAR_SAMPLE * median && d * FAR_SAMPLE >= median)
         .collect();
     Some(kept.iter().sum::<f64>() / kept.len() as f64)
 }
 
 /// See [`mean_spacing_in`]: a nearest distance this many times the median is an isolated
-/// point's, not the sampling's.
+/// point's, and one this many times smaller a near-copy's, not the sampling's.
 const FAR_SAMPLE: f64 = 1000.0;
 
 #[cfg(test)]
@@ -851,6 +965,37 @@ mod tests {
                 let p = pts[i as usize];
                 let d2: f64 = (0..3).map(|k| (p[k] - q[k]).powi(2)).sum();
                 d2 <= r * r
+            })
+            .collect()
+    }
+
+    /// Every point as (id, distance to `q`), nearest first, ties by id.
+    fn brute_nearest(pts: &[[f64; 3]], q: [f64; 3]) -> Vec<(u32, f64)> {
+        let mut all: Vec<(u32, f64)> = (0..pts.len() as u32)
+            .map(|j| {
+                let d2: f64 = (0..3).map(|k| (pts[j as usize][k] - q[k]).powi(2)).sum();
+                (j, d2.sqrt())
+            })
+            .collect();
+        all.sort_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)));
+        all
+    }
+
+    /// The ids of the points within `reach` of the segment `a`–`b`, sorted.
+    fn brute_near_segment(pts: &[[f64; 3]], a: [f64; 3], b: [f64; 3], reach: f64) -> Vec<u32> {
+        (0..pts.len() as u32)
+            .filter(|&i| {
+                let p = pts[i as usize];
+                let ab = [0, 1, 2].map(|k| b[k] - a[k]);
+                let ap = [0, 1, 2].map(|k| p[k] - a[k]);
+                let l2: f64 = ab.iter().map(|x| x * x).sum();
+                let t = if l2 > 0.0 {
+                    (0..3).map(|k| ab[k] * ap[k]).sum::<f64>() / l2
+                } else {
+                    0.0
+                };
+                let t = t.clamp(0.0, 1.0);
+                (0..3).map(|k| (ap[k] - t * ab[k]).powi(2)).sum::<f64>() <= reach * reach
             })
             .collect()
     }
@@ -916,21 +1061,7 @@ mod tests {
             got.sort_unstable();
             got.dedup();
             assert_eq!(n, got.len(), "a point was visited twice");
-            let want: Vec<u32> = (0..pts.len() as u32)
-                .filter(|&i| {
-                    let p = pts[i as usize];
-                    let ab: Vec<f64> = (0..3).map(|k| b[k] - a[k]).collect();
-                    let ap: Vec<f64> = (0..3).map(|k| p[k] - a[k]).collect();
-                    let l2: f64 = ab.iter().map(|x| x * x).sum();
-                    let t = if l2 > 0.0 {
-                        (0..3).map(|k| ab[k] * ap[k]).sum::<f64>() / l2
-                    } else {
-                        0.0
-                    };
-                    let t = t.clamp(0.0, 1.0);
-                    (0..3).map(|k| (ap[k] - t * ab[k]).powi(2)).sum::<f64>() <= reach * reach
-                })
-                .collect();
+            let want = brute_near_segment(pts, a, b, reach);
             assert_eq!(got, want, "segment {a:?}-{b:?} reach {reach}");
         }
     }
@@ -966,6 +1097,42 @@ mod tests {
     }
 
     #[test]
+    fn cells_beside_far_outliers_keep_the_asked_size_and_queries_stay_exact() {
+        // A part between points 1e12 and 1e300 away on either side: the part's cells are
+        // 0.5 wide (with 2^21 cells over the box they were 5e5 to 1e294 wide, the whole part
+        // in one cell), the far points share the outermost cells, and radius and segment
+        // queries from the part and from the far points find what brute force finds.
+        let part = random_cloud(3000, 47, 10.0, 0.0);
+        for far in [
+            vec![[1e12, 1e12, 1e12]],
+            vec![[-1e12, 5.0, 5.0]],
+            vec![
+                [1e300, -1e300, 3.0],
+                [-1e300, 2.0, 1e300],
+                [9e299, -1e300, 3.0],
+            ],
+        ] {
+            let mut pts = part.clone();
+            pts.extend(&far);
+            let grid = Grid::new(&pts, 0.5).unwrap();
+            assert_eq!(grid.cell(), 0.5);
+            let in_part = part.iter().step_by(97).map(|&q| (q, 0.5));
+            let wide = far.iter().map(|&q| (q, 2e300)).chain([(part[3], 1e12)]);
+            for (q, r) in in_part.chain(wide) {
+                assert_eq!(grid.within(q, r), brute_within(&pts, q, r), "r {r:e}");
+            }
+            let toward = far[0].map(|x| x.clamp(-1e15, 1e15));
+            for (a, b, reach) in [(part[0], part[1], 0.7), (part[2], toward, 1.0)] {
+                let mut got = Vec::new();
+                grid.for_each_near_segment(a, b, reach, |i| got.push(i));
+                got.sort_unstable();
+                let want = brute_near_segment(&pts, a, b, reach);
+                assert_eq!(got, want, "segment to {b:?}");
+            }
+        }
+    }
+
+    #[test]
     fn grid_keeps_precision_at_georeferenced_offsets() {
         let base = random_cloud(400, 5, 1.0, 0.0);
         let far: Vec<[f64; 3]> = base
@@ -994,16 +1161,10 @@ mod tests {
         let k = 6;
         let nn = knn(&pts, k).unwrap();
         for i in (0..pts.len()).step_by(17) {
-            let mut all: Vec<(u32, f64)> = (0..pts.len() as u32)
-                .filter(|&j| j as usize != i)
-                .map(|j| {
-                    let d2: f64 = (0..3)
-                        .map(|c| (pts[j as usize][c] - pts[i][c]).powi(2))
-                        .sum();
-                    (j, d2.sqrt())
-                })
+            let all: Vec<(u32, f64)> = brute_nearest(&pts, pts[i])
+                .into_iter()
+                .filter(|&(j, _)| j as usize != i)
                 .collect();
-            all.sort_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)));
             let want: Vec<u32> = all[..k].iter().map(|x| x.0).collect();
             assert_eq!(nn.of(i), &want[..], "point {i}");
             for (a, b) in nn.dist[i * k..(i + 1) * k].iter().zip(&all[..k]) {
@@ -1080,6 +1241,33 @@ mod tests {
     }
 
     #[test]
+    fn kd_tree_tells_apart_thousands_of_points_within_a_billionth() {
+        // 3,000 distinct points within 1e-9 of one point of a part 10 wide round to a few f32
+        // points: the f32 tree put them all at distance 0 from each other, and every query
+        // among them read all of them. Their nearest neighbours must be the true ones.
+        let mut pts = random_cloud(2000, 53, 10.0, 0.0);
+        let c = pts[7];
+        pts.extend(
+            random_cloud(3000, 54, 1e-9, 0.0)
+                .iter()
+                .map(|d| [c[0] + d[0], c[1] + d[1], c[2] + d[2]]),
+        );
+        let tree = KdTree::new(&pts).unwrap();
+        for i in (2000..pts.len()).step_by(71).chain([7, 100]) {
+            let all = brute_nearest(&pts, pts[i]);
+            let got = tree.nearest(pts[i], 4);
+            assert_eq!(got[0], (i as u32, 0.0), "point {i}");
+            for (g, w) in got.iter().zip(&all).skip(1) {
+                assert!(
+                    (g.1 - w.1).abs() <= 1e-12 * w.1.max(1.0),
+                    "point {i}: {g:?} vs {w:?}"
+                );
+                assert!(g.1 > 0.0, "point {i}");
+            }
+        }
+    }
+
+    #[test]
     fn kd_tree_keeps_the_bulk_precise_beside_a_far_outlier() {
         // One point 1e12 away: with the box's centre and extent the 3,000 bulk points would
         // be a few f32 steps wide. The bulk's neighbours must be what they are without it.
@@ -1111,6 +1299,27 @@ mod tests {
         assert_eq!(
             mean_spacing(&[[1.0, 2.0, 3.0], [1.0, 2.0, 4.0]], 10),
             Some(1.0)
+        );
+    }
+
+    #[test]
+    fn mean_spacing_leaves_out_near_copies() {
+        // 5,000 distinct points within 1e-9 of one point of a 20,000-point cloud: the mean is
+        // the cloud's (their nearest distances are a billion times below it).
+        let pts = random_cloud(20_000, 61, 10.0, 0.0);
+        let c = pts[5];
+        let mut crowded = pts.clone();
+        crowded.extend(
+            random_cloud(5000, 62, 1e-9, 0.0)
+                .iter()
+                .map(|d| [c[0] + d[0], c[1] + d[1], c[2] + d[2]]),
+        );
+        let (with, without) = (mean_spacing(&crowded, 50_000), mean_spacing(&pts, 50_000));
+        let (with, without) = (with.unwrap(), without.unwrap());
+        // pts[5] itself now has a near-copy as its nearest point: one sample fewer.
+        assert!(
+            (with - without).abs() < 1e-3 * without,
+            "{with} vs {without}"
         );
     }
 

@@ -42,6 +42,15 @@ const SMALL_BOX: &[&str] = &[
     "--double",
 ];
 
+/// A case holding `SMALL_BOX` as box.ply, its points and the report of its run into `unit`.
+fn small_box_case() -> (Case, Vec<[f64; 3]>, Value) {
+    let c = Case::new();
+    let scan = synth(c.path(), "box.ply", SMALL_BOX);
+    let pts = read_cloud(&scan).positions;
+    let unit = run_ok(&c, "box.ply", "unit");
+    (c, pts, unit)
+}
+
 /// A run's edges and corners with every position scaled by `s`, for comparing runs on one
 /// cloud at two scales.
 fn corners_scaled(rep: &Value, s: f64) -> Vec<[f64; 3]> {
@@ -56,6 +65,15 @@ fn corners_scaled(rep: &Value, s: f64) -> Vec<[f64; 3]> {
         .collect();
     v.sort_by(|a, b| a.partial_cmp(b).unwrap());
     v
+}
+
+/// The same number of corners, each within `tol` of its counterpart (both sorted).
+fn assert_corners_near(got: &[[f64; 3]], want: &[[f64; 3]], tol: f64) {
+    assert_eq!(got.len(), want.len());
+    for (g, w) in got.iter().zip(want) {
+        let d = (0..3).map(|k| (g[k] - w[k]).powi(2)).sum::<f64>().sqrt();
+        assert!(d < tol, "corner {g:?} vs {w:?}");
+    }
 }
 
 #[test]
@@ -198,10 +216,7 @@ fn two_positions_only_are_no_surface() {
 
 #[test]
 fn tiny_and_huge_scales_give_the_edges_and_corners_of_the_unscaled_part() {
-    let c = Case::new();
-    let scan = synth(c.path(), "box.ply", SMALL_BOX);
-    let pts = read_cloud(&scan).positions;
-    let unit = run_ok(&c, "box.ply", "unit");
+    let (c, pts, unit) = small_box_case();
     let want = corners_scaled(&unit, 1.0);
     assert_eq!(want.len(), 8, "{unit:#}");
     let unit_spacing = info_json(c.path(), "box.ply")["mean_spacing"]
@@ -280,10 +295,7 @@ fn a_far_outlier_leaves_the_part_measured_and_its_edges_found() {
     // One point 1e12 away from a 100-unit part: the k-d tree's f32 coordinates held the part
     // in a few float steps (info read every point per query; run failed to measure the
     // spacing), and the grid's radius and ray queries walked 2^21 cells a side.
-    let c = Case::new();
-    let scan = synth(c.path(), "box.ply", SMALL_BOX);
-    let mut pts = read_cloud(&scan).positions;
-    let unit = run_ok(&c, "box.ply", "unit");
+    let (c, mut pts, unit) = small_box_case();
     let unit_spacing = info_json(c.path(), "box.ply")["mean_spacing"]
         .as_f64()
         .unwrap();
@@ -299,10 +311,63 @@ fn a_far_outlier_leaves_the_part_measured_and_its_edges_found() {
     );
     let rep = run_ok(&c, "far.ply", "far");
     assert_eq!(rep["edges"].as_array().unwrap().len(), 12);
-    let (got, want) = (corners_scaled(&rep, 1.0), corners_scaled(&unit, 1.0));
-    assert_eq!(got.len(), want.len());
-    for (g, w) in got.iter().zip(&want) {
-        let d = (0..3).map(|k| (g[k] - w[k]).powi(2)).sum::<f64>().sqrt();
-        assert!(d < 0.05, "corner {g:?} vs {w:?}");
+    assert_corners_near(
+        &corners_scaled(&rep, 1.0),
+        &corners_scaled(&unit, 1.0),
+        0.05,
+    );
+}
+
+#[test]
+fn where_a_far_outlier_lies_changes_nothing_in_the_parts_edges_and_corners() {
+    // One point 1e12 above, 1e15 below or 1e30 above a part, or two of them: the neighbour
+    // grid's cells follow the part's radius whatever the cloud's extent, in coordinates
+    // local to the part, so the part's edges and corners are the same in every case. (With
+    // 2^21 cells over the box, local to its low corner, the part sat in one cell whose size
+    // and offsets depended on the outlier: the corners moved with it, and every radius
+    // query read the whole part.)
+    let (c, pts, unit) = small_box_case();
+    let with = |far: &[[f64; 3]], name: &str| {
+        let mut all = pts.clone();
+        all.extend_from_slice(far);
+        write_raw_ply(&c.path().join(format!("{name}.ply")), &all);
+        let rep = run_ok(&c, &format!("{name}.ply"), name);
+        (corners_scaled(&rep, 1.0), rep["edges"].clone())
+    };
+    let (above, edges) = with(&[[1e12, 1e12, 1e12]], "above");
+    assert_eq!(edges.as_array().unwrap().len(), 12);
+    for (far, name) in [
+        (&[[-1e15, -1e15, -1e15]][..], "below"),
+        (&[[1e30, 0.0, 1e30]], "beyond"),
+        (&[[-1e15, -1e15, -1e15], [1e30, 0.0, 1e30]], "both"),
+    ] {
+        let (corners, e) = with(far, name);
+        assert_eq!(corners, above, "{name}");
+        assert_eq!(e, edges, "{name}");
     }
+    assert_corners_near(&above, &corners_scaled(&unit, 1.0), 0.05);
+}
+
+#[test]
+fn near_copies_of_one_point_leave_the_parts_spacing_edges_and_corners() {
+    // 5,000 distinct points within 1e-9 of one point of the part: the k-d tree's f32
+    // coordinates merged them into one (every query among them read all of them); in f64
+    // their nearest distances are a billion times below the spacing and are left out of it.
+    let (c, mut pts, unit) = small_box_case();
+    let spacing = |file: &str| info_json(c.path(), file)["mean_spacing"].as_f64().unwrap();
+    let at = pts[100];
+    pts.extend((0..5000).map(|i| {
+        let t = f64::from(i) / 5000.0;
+        [
+            at[0] + 1e-9 * t,
+            at[1] + 1e-9 * (7.0 * t).fract(),
+            at[2] + 1e-9 * (13.0 * t).fract(),
+        ]
+    }));
+    write_raw_ply(&c.path().join("near.ply"), &pts);
+    let (got, want) = (spacing("near.ply"), spacing("box.ply"));
+    assert!((got - want).abs() < 1e-3 * want, "{got} vs {want}");
+    let rep = run_ok(&c, "near.ply", "near");
+    assert_eq!(rep["edges"].as_array().unwrap().len(), 12);
+    assert_corners_near(&corners_scaled(&rep, 1.0), &corners_scaled(&unit, 1.0), 0.1);
 }
