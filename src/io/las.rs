@@ -249,7 +249,7 @@ fn read_lidar_on(path: &Path, keep_records: bool) -> Result<(Loaded, Lidar)> {
     let file = super::open(path)?;
     let file_len = file.metadata().map(|m| m.len()).unwrap_or(0);
     // Counts and offsets against the file's size first: the crates allocate from them.
-    let most_points = super::las_check::check(path, file_len)?;
+    let most_points = super::las_check::check(path, &file, file_len)?;
     let mut reader = unpanicked(path, "header", || {
         Reader::new(BufReader::with_capacity(1 << 17, file))
     })?

@@ -61,8 +61,21 @@ fn read_u64_at<R: Read + Seek>(f: &mut R, pos: u64) -> std::io::Result<u64> {
 }
 
 /// Checks the file (see the module comment); returns the most points it can hold.
-pub(super) fn check(path: &Path, file_len: u64) -> Result<u64> {
-    let mut f = BufReader::new(super::open(path)?);
+/// Reads through `file`, the handle the crates will read next (not the path again: a file
+/// replaced between the check and the read would be read unchecked), and leaves it at its
+/// start.
+pub(super) fn check(path: &Path, file: &std::fs::File, file_len: u64) -> Result<u64> {
+    let checked = check_from(path, file, file_len);
+    let mut file = file;
+    file.seek(SeekFrom::Start(0))
+        .map_err(|e| Error::io(path, "cannot read", e))?;
+    checked
+}
+
+fn check_from(path: &Path, file: &std::fs::File, file_len: u64) -> Result<u64> {
+    let mut f = BufReader::new(file);
+    f.seek(SeekFrom::Start(0))
+        .map_err(|e| Error::io(path, "cannot read", e))?;
     let raw =
         las::raw::Header::read_from(&mut f).map_err(|e| las_error(path, "header", true, e))?;
     // The VLRs follow what was read as the header, whatever its size field says.

@@ -637,7 +637,7 @@ fn read_ply<R: Read + Seek>(path: &Path, source: R) -> Result<Mesh> {
     let header = Parser::<Skip>::new()
         .read_header(&mut reader)
         .map_err(|e| ply_error(path, "header", false, e))?;
-    super::ply::check_unique_names(path)?;
+    super::ply::check_unique_names(path, reader.get_mut())?;
     let binary = header.encoding != ply_rs_bw::ply::Encoding::Ascii;
 
     let Some(vdef) = header.elements.get("vertex") else {

@@ -359,7 +359,7 @@ pub(crate) fn read(path: &Path, path_choice: VertexPath) -> Result<Loaded> {
     let header = Parser::<Skip>::new()
         .read_header(&mut reader)
         .map_err(|e| header_error(path, &e))?;
-    check_unique_names(path)?;
+    check_unique_names(path, reader.get_mut())?;
 
     let Some(vertex_def) = header.elements.get("vertex").cloned() else {
         let names: Vec<&str> = header.elements.keys().map(|k| k.as_str()).collect();
@@ -495,10 +495,20 @@ pub(crate) fn read(path: &Path, path_choice: VertexPath) -> Result<Loaded> {
 /// Checks the header for names ply-rs-bw would merge without a word: it keeps elements and
 /// their properties in maps keyed by name, so a second `x` (or a second `vertex` element)
 /// replaces the first and the body would be decoded with a record layout that is not the
-/// file's. Reads the header again (the crate has just parsed it, so it ends): a hash map per
-/// element keeps this linear in the header's length, however many properties it names.
-pub(crate) fn check_unique_names(path: &Path) -> Result<()> {
-    let mut r = BufReader::new(super::open(path)?);
+/// file's. Reads the header again (the crate has just parsed it, so it ends) through the
+/// reader's own handle, then goes back to where the reader was: a file deleted or replaced
+/// meanwhile is still the one read. A hash map per element keeps this linear in the header's
+/// length, however many properties it names.
+pub(crate) fn check_unique_names<R: BufRead + Seek>(path: &Path, r: &mut R) -> Result<()> {
+    let io = |e| Error::io(path, "cannot read", e);
+    let back = r.stream_position().map_err(io)?;
+    r.seek(SeekFrom::Start(0)).map_err(io)?;
+    let checked = unique_names(path, r);
+    r.seek(SeekFrom::Start(back)).map_err(io)?;
+    checked
+}
+
+fn unique_names(path: &Path, r: &mut impl BufRead) -> Result<()> {
     let mut elements: HashMap<String, usize> = HashMap::new();
     let mut properties: HashMap<String, usize> = HashMap::new();
     let mut element = String::new();
