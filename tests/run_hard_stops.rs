@@ -140,7 +140,7 @@ fn outputs_never_mixed_after_sigkill_at_random_moments() {
     let mut held = which(&out, &refs, "the earlier good run");
     assert_eq!(held, 0);
     let mut rng = rand::rngs::SmallRng::seed_from_u64(12);
-    let (mut finished, mut in_write) = (0, 0);
+    let (mut finished, mut in_write, mut killed_writing) = (0, 0, 0);
     for k in 0..50 {
         // The other input each time, so that a mix of the two would show.
         let next = 1 - held;
@@ -164,6 +164,8 @@ fn outputs_never_mixed_after_sigkill_at_random_moments() {
         let status = child.wait().unwrap();
         if status.success() {
             finished += 1;
+        } else if k % 2 == 1 {
+            killed_writing += 1;
         }
         let now = which(&out, &refs, &format!("kill {k}"));
         assert!(
@@ -178,10 +180,18 @@ fn outputs_never_mixed_after_sigkill_at_random_moments() {
         }
         held = now;
     }
-    println!("50 kills: {in_write} aimed at the write stage, {finished} runs finished first");
+    println!(
+        "50 kills: {in_write} aimed at the write stage ({killed_writing} of them landed), \
+         {finished} runs finished first"
+    );
+    // How many land depends on the machine's load; enough must, or nothing was tested.
     assert!(
-        finished < 25,
-        "most runs were not killed: {finished} of 50 finished"
+        finished <= 40,
+        "{finished} of 50 runs finished before the kill"
+    );
+    assert!(
+        killed_writing >= 5,
+        "only {killed_writing} kills landed in the write stage"
     );
     // A run after the kills removes what they left.
     let last = 1 - held;

@@ -70,8 +70,11 @@ pub fn stage(out: &Path, names: &[&str]) -> Result<Staging> {
         }
     }
     clean_stale(out);
+    // The owner's pid in the name: a run killed between making its folder and locking it
+    // leaves a folder without a lock, stale once that process is gone.
+    let prefix = format!("{RUN_PREFIX}{}-", std::process::id());
     let dir = tempfile::Builder::new()
-        .prefix(RUN_PREFIX)
+        .prefix(&prefix)
         .tempdir_in(out)
         .map_err(|e| {
             Error::io(
@@ -226,6 +229,20 @@ fn older_than_grace(p: &Path) -> bool {
         .is_some_and(|age| age > GRACE)
 }
 
+/// Whether the process named in the run folder's name (`.sharpedge-run-<pid>-XXXXXX`) has
+/// ended; false where that cannot be told (no /proc).
+fn owner_gone(dir: &Path) -> bool {
+    let name = file_name(dir);
+    let Some(pid) = name
+        .strip_prefix(RUN_PREFIX)
+        .and_then(|rest| rest.split('-').next())
+        .and_then(|p| p.parse::<u32>().ok())
+    else {
+        return false;
+    };
+    Path::new("/proc/self").exists() && !Path::new("/proc").join(pid.to_string()).exists()
+}
+
 /// Whether the run folder `dir` belongs to no live run. On `true` the caller holds its lock
 /// (returned) until it has removed the folder.
 fn stale_run(out: &Path, dir: &Path) -> Option<Option<File>> {
@@ -235,7 +252,7 @@ fn stale_run(out: &Path, dir: &Path) -> Option<Option<File>> {
             Err(_) => return None,
         },
         // A folder whose run died before locking it, or is creating its lock now.
-        Err(_) if older_than_grace(dir) => None,
+        Err(_) if owner_gone(dir) || older_than_grace(dir) => None,
         Err(_) => return None,
     };
     // Read after taking the lock: a run swaps its folder in while it holds the lock, so a
@@ -407,6 +424,25 @@ mod tests {
         assert_eq!(
             std::fs::read_to_string(d.path().join("a.txt")).unwrap(),
             "new"
+        );
+    }
+
+    #[test]
+    fn a_folder_killed_before_its_lock_goes_once_its_process_has() {
+        let d = tempfile::tempdir().unwrap();
+        // No lock file: killed between making the folder and locking it. A pid above the
+        // kernel's limit (4,194,304) is no live process; this process's own pid is.
+        let dead = d.path().join(format!("{RUN_PREFIX}4194400-abc123"));
+        let alive = d
+            .path()
+            .join(format!("{RUN_PREFIX}{}-def456", std::process::id()));
+        std::fs::create_dir(&dead).unwrap();
+        std::fs::create_dir(&alive).unwrap();
+        publish(d.path(), &[("a.txt", "new")]);
+        assert!(!dead.exists());
+        assert!(
+            alive.exists(),
+            "a young folder of a live process was removed"
         );
     }
 
