@@ -155,43 +155,24 @@ impl Staging {
 
     #[cfg(unix)]
     fn swap_in(&self) -> Result<Vec<PathBuf>> {
-        use std::os::unix::fs::symlink;
         let run_name = file_name(self.run_dir());
         let tmp = |what: &str| self.out.join(format!("{run_name}.{what}"));
-        let link_err = |to: &Path, e| {
-            Error::io(
-                to,
-                "cannot link this output into the output folder; the earlier output is unchanged",
-                e,
-            )
-        };
         // The names first: each resolves through `.sharpedge-current`, so a new name shows
         // nothing until the swap and an existing one keeps showing the earlier run's file.
         let mut placed = Vec::with_capacity(self.names.len());
         for (i, name) in self.names.iter().enumerate() {
             let to = self.out.join(name);
             let target = Path::new(CURRENT).join(name);
-            if std::fs::read_link(&to).is_ok_and(|t| t == target) {
-                placed.push(to);
-                continue;
-            }
-            let t = tmp(&format!("link{i}"));
-            let _ = std::fs::remove_file(&t);
-            symlink(&target, &t).map_err(|e| link_err(&to, e))?;
-            if let Err(e) = std::fs::rename(&t, &to) {
-                let _ = std::fs::remove_file(&t);
-                return Err(link_err(&to, e));
+            if !std::fs::read_link(&to).is_ok_and(|t| t == target) {
+                replace_with_link(&target, &tmp(&format!("link{i}")), &to)?;
             }
             placed.push(to);
         }
-        let t = tmp("current");
-        let _ = std::fs::remove_file(&t);
-        let current = self.out.join(CURRENT);
-        symlink(run_name, &t).map_err(|e| link_err(&current, e))?;
-        if let Err(e) = std::fs::rename(&t, &current) {
-            let _ = std::fs::remove_file(&t);
-            return Err(link_err(&current, e));
-        }
+        replace_with_link(
+            Path::new(&run_name),
+            &tmp("current"),
+            &self.out.join(CURRENT),
+        )?;
         Ok(placed)
     }
 
@@ -206,6 +187,25 @@ impl Staging {
         }
         Ok(placed)
     }
+}
+
+/// Makes `to` a link to `target` in one rename, through the temporary name `tmp`: `to` shows
+/// its old content or the link, never nothing.
+#[cfg(unix)]
+fn replace_with_link(target: &Path, tmp: &Path, to: &Path) -> Result<()> {
+    let err = |e| {
+        Error::io(
+            to,
+            "cannot link this output into the output folder; the earlier output is unchanged",
+            e,
+        )
+    };
+    let _ = std::fs::remove_file(tmp);
+    std::os::unix::fs::symlink(target, tmp).map_err(err)?;
+    std::fs::rename(tmp, to).map_err(|e| {
+        let _ = std::fs::remove_file(tmp);
+        err(e)
+    })
 }
 
 fn file_name(p: &Path) -> String {
