@@ -9,6 +9,9 @@
 # a crash (panic, abort), an input taking more than 1 s, more than 2048 MB of RSS or one
 # allocation above 2048 MB; the input is saved in fuzz/artifacts/<target>/. The script runs
 # every target and exits 1 when any failed. CI: scripts/fuzz.sh 60
+# FUZZ_RUNS=N stops a target after N executions if that comes before SECONDS (the long runs:
+# FUZZ_RUNS=10000000 scripts/fuzz.sh 36000 ply). TMPDIR=/dev/shm keeps the per-input files
+# in memory.
 #
 # The targets are built as the shipped binary is (`-O`: release, no debug assertions), with
 # AddressSanitizer: laz's `debug_assert!`s on decoded symbols fire on corrupt LAZ data that
@@ -46,6 +49,15 @@ for t in "${targets[@]}"; do
   cargo +nightly fuzz build -O "$t" || { echo "fuzz.sh: build of $t failed" >&2; exit 2; }
 done
 
+runs=()
+if [ -n "${FUZZ_RUNS:-}" ]; then
+  if ! [[ "$FUZZ_RUNS" =~ ^[0-9]+$ ]]; then
+    echo "fuzz.sh: FUZZ_RUNS must be a count of executions, got '$FUZZ_RUNS'" >&2
+    exit 2
+  fi
+  runs=(-runs="$FUZZ_RUNS")
+fi
+
 failed=()
 for t in "${targets[@]}"; do
   mkdir -p "corpus/$t" "artifacts/$t"
@@ -53,9 +65,9 @@ for t in "${targets[@]}"; do
   # ASAN_OPTIONS too: libFuzzer's -detect_leaks=0 only stops its per-input checks, and
   # LeakSanitizer's check at exit still reported the decoding threads (CI, 2026-11-25).
   if TMPDIR="$scratch" ASAN_OPTIONS="${ASAN_OPTIONS:+$ASAN_OPTIONS:}detect_leaks=0" cargo +nightly fuzz run -O "$t" "corpus/$t" "corpus-seed/$t" -- \
-      -max_total_time="$secs" -rss_limit_mb=2048 -malloc_limit_mb=2048 -timeout=1 -detect_leaks=0 \
+      -max_total_time="$secs" "${runs[@]}" -rss_limit_mb=2048 -malloc_limit_mb=2048 -timeout=1 -detect_leaks=0 \
       -dict="dict/$t.dict" -print_final_stats=1 2>"$scratch/$t.log"; then
-    grep -E '^stat::(number_of_executed_units|peak_rss_mb)|^Done' "$scratch/$t.log" | sed "s/^/fuzz.sh: $t: /"
+    grep -E '^stat::(number_of_executed_units|peak_rss_mb)|^Done|^INFO: -max_total_time' "$scratch/$t.log" | sed "s/^/fuzz.sh: $t: /"
   else
     failed+=("$t")
     tail -n 60 "$scratch/$t.log" >&2
