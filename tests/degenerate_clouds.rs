@@ -371,3 +371,58 @@ fn near_copies_of_one_point_leave_the_parts_spacing_edges_and_corners() {
     assert_eq!(rep["edges"].as_array().unwrap().len(), 12);
     assert_corners_near(&corners_scaled(&rep, 1.0), &corners_scaled(&unit, 1.0), 0.1);
 }
+
+#[test]
+fn issue12_crowded_points_beside_a_box_leave_its_edges_and_corners() {
+    // 15,000 distinct points within 1e-3 of the middle of a face (a tenth of a spacing):
+    // before crowded cells were thinned every radius query around them read all of them.
+    let (c, pts, unit) = small_box_case();
+    let n = pts.len() as f64;
+    let centre = [0, 1, 2].map(|k| pts.iter().map(|p| p[k]).sum::<f64>() / n);
+    let dist = |p: &[f64; 3]| (0..3).map(|k| (p[k] - centre[k]).powi(2)).sum::<f64>();
+    let at = *pts
+        .iter()
+        .min_by(|a, b| dist(a).total_cmp(&dist(b)))
+        .unwrap();
+    let mut state = 7u64;
+    let mut next = move || {
+        state = state
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1_442_695_040_888_963_407);
+        (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+    };
+    let mut crowded = pts.clone();
+    crowded.extend((0..15_000).map(|_| [0, 1, 2].map(|k| at[k] + 2e-3 * next())));
+    write_raw_ply(&c.path().join("crowded.ply"), &crowded);
+
+    let r = sharpedge(
+        c.path(),
+        &[
+            "-v",
+            "run",
+            "pipeline.toml",
+            "--input",
+            "crowded.ply",
+            "--out",
+            "crowd",
+        ],
+    );
+    r.assert_ok();
+    assert_contains(&r.stderr, "crowded cells");
+    let got = report(&c.path().join("crowd"));
+    let spacing = unit["scale"]["spacing"].as_f64().unwrap();
+    assert_eq!(
+        got["edges"].as_array().unwrap().len(),
+        unit["edges"].as_array().unwrap().len()
+    );
+    assert_corners_near(
+        &corners_scaled(&got, 1.0),
+        &corners_scaled(&unit, 1.0),
+        0.05 * spacing,
+    );
+    // The crowd lies on a face, far from every edge: its points are not moved.
+    let rect = read_cloud(&c.path().join("crowd").join("rectified.ply"));
+    for (i, p) in crowded.iter().enumerate().skip(pts.len()) {
+        assert_eq!(rect.positions[i], *p, "crowd point {i}");
+    }
+}

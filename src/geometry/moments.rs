@@ -34,6 +34,22 @@ pub fn add_moments(m: &mut [f64; 10], d: [f64; 3]) {
     m[9] += d[2] * d[2];
 }
 
+/// Adds an offset standing for `w` points (a crowded cloud's kept point:
+/// `neighbours::Grid::crowd`).
+#[inline]
+pub fn add_moments_weighted(m: &mut [f64; 10], d: [f64; 3], w: f64) {
+    m[0] += w;
+    m[1] += w * d[0];
+    m[2] += w * d[1];
+    m[3] += w * d[2];
+    m[4] += w * d[0] * d[0];
+    m[5] += w * d[0] * d[1];
+    m[6] += w * d[0] * d[2];
+    m[7] += w * d[1] * d[1];
+    m[8] += w * d[1] * d[2];
+    m[9] += w * d[2] * d[2];
+}
+
 /// PCA from raw moments [n, Σx, Σy, Σz, Σxx, Σxy, Σxz, Σyy, Σyz, Σzz] (offsets from the query,
 /// so the subtraction of the mean loses no precision at georeferenced magnitudes).
 pub fn pca_from_moments(m: &[f64; 10]) -> Option<LocalPca> {

@@ -39,6 +39,11 @@ const PLANE_SLACK: f64 = 0.05;
 /// Neighbours within this many local spacings are reached from a face point: sampling gaps
 /// of scan lines and grids are measured in the local spacing, so two bridge them.
 const REACH: f64 = 2.0;
+
+/// Crowded cells of the growing grid (see `Grid::crowd`): more than this many times the
+/// median cell's points, and more than `CROWD_FLOOR`.
+const CROWD_FACTOR: usize = 64;
+const CROWD_FLOOR: usize = 256;
 /// The fewest points of a face, and the fewest in neighbourhoods of median size: a face is
 /// wider than one neighbourhood (at high noise, growing leaves flat-looking scraps of a few
 /// dozen points between the faces, tilted by the noise).
@@ -91,13 +96,23 @@ pub fn planar_faces(
     let eligible = |i: usize| {
         !features.candidate[i] && !features.outlier[i] && near.as_ref().is_none_or(|m| m[i])
     };
-    let ids: Vec<u32> = (0..n as u32).filter(|&i| eligible(i as usize)).collect();
+    let mut ids: Vec<u32> = (0..n as u32).filter(|&i| eligible(i as usize)).collect();
     // Growing asks for the neighbours within two spacings of every point: a grid of only the
     // points that may join a face, in cells that wide, reads a small share of what the
-    // features' grid (all points, cells of a radius) would.
+    // features' grid (all points, cells of a radius) would. In a crowded cloud only the
+    // crowd's kept points grow faces (`Grid::crowd`; the others stay out of every face), so
+    // each point reads a bounded number of neighbours.
     let fine = {
         let sub: Vec<[f64; 3]> = ids.iter().map(|&i| positions[i as usize]).collect();
-        Grid::new(&sub, REACH * nine_in_ten(&scale.spacing)).ok()
+        Grid::new(&sub, REACH * nine_in_ten(&scale.spacing))
+            .ok()
+            .map(|g| match g.crowd(&sub, CROWD_FACTOR, CROWD_FLOOR) {
+                Some(crowd) => {
+                    ids = crowd.ids.iter().map(|&k| ids[k as usize]).collect();
+                    crowd.grid
+                }
+                None => g,
+            })
     };
     let (grid, to_id): (&Grid, Option<&[u32]>) = match &fine {
         Some(g) => (g, Some(&ids)),

@@ -23,8 +23,8 @@
 use rayon::prelude::*;
 
 use crate::geometry::eigen3;
-pub use crate::geometry::moments::{LocalPca, add_moments, pca_from_moments};
-use crate::neighbours::{Block, Grid};
+pub use crate::geometry::moments::{LocalPca, add_moments, add_moments_weighted, pca_from_moments};
+use crate::neighbours::{Block, Crowd, Grid};
 use crate::progress::Progress;
 pub use crate::stages::scale::{LocalScale, NORMAL_RADIUS, Scale, ScaleRules};
 
@@ -119,6 +119,12 @@ pub struct Features {
 /// Cells per unit of parallel work: a few thousand points.
 const BLOCK_CHUNK: usize = 256;
 
+/// A cell with more than this many times the median cell's points (and more than
+/// `CROWD_FLOOR`) is crowded: its neighbourhood sums come from a weighted subset
+/// (`Grid::crowd`), so a query reads at most about this many medians of a cell.
+const CROWD_FACTOR: usize = 64;
+const CROWD_FLOOR: usize = 1024;
+
 /// Computes the per-point features, each point with its own radius and noise from `scale`.
 /// Any grid works; cells about as wide as most radii are fastest.
 pub fn features(
@@ -139,6 +145,14 @@ pub fn features(
     // a cell found once for all its points); write back by id.
     let blocks = grid.blocks();
     let chunk = BLOCK_CHUNK;
+    let crowd = grid.crowd(positions, CROWD_FACTOR, CROWD_FLOOR);
+    if let Some(c) = &crowd {
+        tracing::info!(
+            "features: crowded cells: {} of {} points stand for the others in neighbourhood sums",
+            c.ids.len(),
+            n
+        );
+    }
 
     // Pass 1: plane fit of each neighbourhood.
     let mut normal = vec![[0.0f32; 3]; n];
@@ -155,7 +169,16 @@ pub fn features(
                     let r = f64::from(scale.radius[i as usize]);
                     let var = var_of(i as usize);
                     let mut m = [0.0f64; 10];
-                    grid.for_each_within_block(block, q, r, |_, d, _| add_moments(&mut m, d));
+                    match &crowd {
+                        None => {
+                            grid.for_each_within_block(block, q, r, |_, d, _| {
+                                add_moments(&mut m, d)
+                            });
+                        }
+                        Some(c) => c.grid.for_each_within(q, r, |k, d, _| {
+                            add_moments_weighted(&mut m, d, c.weight[k as usize])
+                        }),
+                    }
                     rows.push(match pca_from_moments(&m) {
                         Some(p) => {
                             let sum = p.eigenvalues.iter().sum::<f64>();
@@ -165,7 +188,8 @@ pub fn features(
                                 0.0
                             };
                             let nrm = p.normal.map(|c| c as f32);
-                            (i, nrm, (p.eigenvalues[0] / var) as f32, v as f32, p.count)
+                            let c = m[0].round() as u32;
+                            (i, nrm, (p.eigenvalues[0] / var) as f32, v as f32, c)
                         }
                         None => (i, [0.0; 3], 0.0, 0.0, 1),
                     });
@@ -196,7 +220,8 @@ pub fn features(
             for block in blocks {
                 for &i in grid.slot_ids(block.slots.clone()) {
                     let r = f64::from(scale.radius[i as usize]);
-                    let (t, d) = normal_tensor(grid, block, &normal, positions[i as usize], r);
+                    let q = positions[i as usize];
+                    let (t, d) = normal_tensor(grid, crowd.as_ref(), block, &normal, q, r);
                     rows.push((i, t[1] as f32, d.map(|c| c as f32), t[0] as f32));
                 }
             }
@@ -240,8 +265,10 @@ pub fn features(
 }
 
 /// Eigenvalues (ascending) of the mean normal tensor around `q`, and its smallest eigenvector.
+/// With a crowd, over its kept points, weighted.
 fn normal_tensor(
     grid: &Grid,
+    crowd: Option<&Crowd>,
     block: &Block,
     normal: &[[f32; 3]],
     q: [f64; 3],
@@ -249,16 +276,29 @@ fn normal_tensor(
 ) -> ([f64; 3], [f64; 3]) {
     let mut t = [0.0f64; 6];
     let mut c = 0.0f64;
-    grid.for_each_within_block(block, q, r, |j, _, _| {
-        let m = normal[j as usize].map(f64::from);
-        t[0] += m[0] * m[0];
-        t[1] += m[0] * m[1];
-        t[2] += m[0] * m[2];
-        t[3] += m[1] * m[1];
-        t[4] += m[1] * m[2];
-        t[5] += m[2] * m[2];
-        c += 1.0;
-    });
+    match crowd {
+        None => grid.for_each_within_block(block, q, r, |j, _, _| {
+            let m = normal[j as usize].map(f64::from);
+            t[0] += m[0] * m[0];
+            t[1] += m[0] * m[1];
+            t[2] += m[0] * m[2];
+            t[3] += m[1] * m[1];
+            t[4] += m[1] * m[2];
+            t[5] += m[2] * m[2];
+            c += 1.0;
+        }),
+        Some(crowd) => crowd.grid.for_each_within(q, r, |k, _, _| {
+            let m = normal[crowd.ids[k as usize] as usize].map(f64::from);
+            let w = crowd.weight[k as usize];
+            t[0] += w * m[0] * m[0];
+            t[1] += w * m[0] * m[1];
+            t[2] += w * m[0] * m[2];
+            t[3] += w * m[1] * m[1];
+            t[4] += w * m[1] * m[2];
+            t[5] += w * m[2] * m[2];
+            c += w;
+        }),
+    }
     if c == 0.0 {
         return ([0.0; 3], [0.0; 3]);
     }
