@@ -23,6 +23,8 @@ pub enum Reason {
     TooFewSlabs,
     /// Both sides lie on one surface (the faces fold back at a few degrees).
     OneSurface,
+    /// The slab fits scatter about their course by spacings: no one edge runs through them.
+    Scattered,
     /// Too short between its vertices for any slab to keep clear of them.
     TooShort,
     /// A vertex whose edges were left out (fewer than two fitted edges reach it).
@@ -44,6 +46,7 @@ impl Reason {
             Reason::Bending => "bending",
             Reason::TooFewSlabs => "too_few_slabs",
             Reason::OneSurface => "one_surface",
+            Reason::Scattered => "scattered",
             Reason::TooShort => "too_short",
             Reason::EdgesLeftOut => "edges_left_out",
             Reason::VirtualCorner => "virtual_corner",

@@ -196,6 +196,15 @@ pub fn process(cloud: Cloud, settings: &Settings, clock: &mut impl LapClock) -> 
     clock.lap("features");
     let planar = faces::planar_faces(positions, &grid, &features, &local);
     tracing::info!("{} planar faces", planar.planes.len());
+    for (k, p) in planar.planes.iter().enumerate() {
+        tracing::debug!(
+            "face {k}: {} points, normal {:?}, centroid {:?}, rms {:.3} spacings",
+            p.points,
+            p.normal,
+            p.centroid,
+            p.rms / p.spacing
+        );
+    }
     clock.lap("faces");
     // Edge runs are grown at the scale of the candidates (the points near edges), not of the
     // whole cloud.

@@ -380,6 +380,9 @@ fn face_of(
     min_points: usize,
 ) -> Option<Plane> {
     if region.len() < min_points {
+        if region.len() >= 20 {
+            tracing::trace!("region of {} points: fewer than {min_points}", region.len());
+        }
         return None;
     }
     // A face ends at its edges, where the candidates begin; a patch of a curved surface ends
@@ -396,9 +399,21 @@ fn face_of(
         return None;
     }
     let plane = fit_plane(positions, scale, region, origin)?;
-    if plane.rms > FLAT_RMS * plane.noise + PLANE_SLACK * plane.spacing
-        || folds(positions, region, origin, &plane)
-    {
+    if plane.rms > FLAT_RMS * plane.noise + PLANE_SLACK * plane.spacing {
+        tracing::trace!(
+            "region of {} points at {:?}: rms {:.3} spacings",
+            region.len(),
+            plane.centroid,
+            plane.rms / plane.spacing
+        );
+        return None;
+    }
+    if folds(positions, region, origin, &plane) {
+        tracing::trace!(
+            "region of {} points at {:?}: folds",
+            region.len(),
+            plane.centroid
+        );
         return None;
     }
     Some(plane)
