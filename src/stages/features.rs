@@ -276,27 +276,24 @@ fn normal_tensor(
 ) -> ([f64; 3], [f64; 3]) {
     let mut t = [0.0f64; 6];
     let mut c = 0.0f64;
+    // Weight 1 leaves every product as it was (x * 1.0 == x): the same sums, bit for bit.
+    let mut add = |n: [f32; 3], w: f64| {
+        let m = n.map(f64::from);
+        t[0] += w * m[0] * m[0];
+        t[1] += w * m[0] * m[1];
+        t[2] += w * m[0] * m[2];
+        t[3] += w * m[1] * m[1];
+        t[4] += w * m[1] * m[2];
+        t[5] += w * m[2] * m[2];
+        c += w;
+    };
     match crowd {
-        None => grid.for_each_within_block(block, q, r, |j, _, _| {
-            let m = normal[j as usize].map(f64::from);
-            t[0] += m[0] * m[0];
-            t[1] += m[0] * m[1];
-            t[2] += m[0] * m[2];
-            t[3] += m[1] * m[1];
-            t[4] += m[1] * m[2];
-            t[5] += m[2] * m[2];
-            c += 1.0;
-        }),
+        None => grid.for_each_within_block(block, q, r, |j, _, _| add(normal[j as usize], 1.0)),
         Some(crowd) => crowd.grid.for_each_within(q, r, |k, _, _| {
-            let m = normal[crowd.ids[k as usize] as usize].map(f64::from);
-            let w = crowd.weight[k as usize];
-            t[0] += w * m[0] * m[0];
-            t[1] += w * m[0] * m[1];
-            t[2] += w * m[0] * m[2];
-            t[3] += w * m[1] * m[1];
-            t[4] += w * m[1] * m[2];
-            t[5] += w * m[2] * m[2];
-            c += w;
+            add(
+                normal[crowd.ids[k as usize] as usize],
+                crowd.weight[k as usize],
+            )
         }),
     }
     if c == 0.0 {
