@@ -377,25 +377,69 @@ impl Grid {
             q[2] - self.origin[2],
         ];
         for &(a, b) in &block.rows[..block.nrows as usize] {
-            self.scan(a as usize..b as usize, ql, r * r, &mut f);
+            self.scan(a as usize..b as usize, ql, r * r, &mut |s: usize, d, d2| {
+                f(self.ids[s], d, d2)
+            });
         }
     }
 
-    /// Calls `f` for the points of `slots` within `sqrt(r2)` of the local point `ql`.
+    /// Calls `f(slot, offset, weight)` for every point of the 27 cells around `block`'s cell
+    /// (for a query `q` inside it), with weight 1 for the points within `r` and 0 for the
+    /// others, in [`Self::for_each_within_block`]'s order. Accumulating `w · x` over them
+    /// gives every sum bit for bit as over the points within `r` (x · 1 = x, x + 0 = x),
+    /// without a branch on the distance: about a third of a block's points are within `r`,
+    /// in no predictable pattern, and the mispredicted branches cost more than the sums of
+    /// the others (the features stage of a 1,000,000-point box: 0.72 s with the branch,
+    /// 0.65 s without; collecting the hits first without a branch, then summing them, took
+    /// 0.81 s). Radii wider than the cell: only the points within `r`, weight 1. Slots index
+    /// [`Self::in_slot_order`] arrays.
+    #[inline]
+    pub fn for_each_in_block_weighted(
+        &self,
+        block: &Block,
+        q: [f64; 3],
+        r: f64,
+        mut f: impl FnMut(usize, [f64; 3], f64),
+    ) {
+        let ql = [
+            q[0] - self.origin[0],
+            q[1] - self.origin[1],
+            q[2] - self.origin[2],
+        ];
+        if r > self.cell * (1.0 + 1e-12) {
+            return self.for_each_within_slots(ql, r, &mut |s, d, _| f(s, d, 1.0));
+        }
+        let r2 = r * r;
+        for &(a, b) in &block.rows[..block.nrows as usize] {
+            for (s, p) in self.local[a as usize..b as usize].iter().enumerate() {
+                let d = [p[0] - ql[0], p[1] - ql[1], p[2] - ql[2]];
+                let d2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+                f(a as usize + s, d, f64::from(u8::from(d2 <= r2)));
+            }
+        }
+    }
+
+    /// Per-point values (by id) rearranged in the grid's slot order.
+    pub fn in_slot_order<T: Copy>(&self, values: &[T]) -> Vec<T> {
+        self.ids.iter().map(|&i| values[i as usize]).collect()
+    }
+
+    /// Calls `f(slot, offset, squared distance)` for the points of `slots` within `sqrt(r2)`
+    /// of the local point `ql`.
     #[inline]
     fn scan(
         &self,
         slots: std::ops::Range<usize>,
         ql: [f64; 3],
         r2: f64,
-        f: &mut impl FnMut(u32, [f64; 3], f64),
+        f: &mut impl FnMut(usize, [f64; 3], f64),
     ) {
         for s in slots {
             let p = self.local[s];
             let d = [p[0] - ql[0], p[1] - ql[1], p[2] - ql[2]];
             let d2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
             if d2 <= r2 {
-                f(self.ids[s], d, d2);
+                f(s, d, d2);
             }
         }
     }
@@ -412,6 +456,17 @@ impl Grid {
             q[1] - self.origin[1],
             q[2] - self.origin[2],
         ];
+        self.for_each_within_slots(ql, r, &mut |s, d, d2| f(self.ids[s], d, d2));
+    }
+
+    /// [`Self::for_each_within`] for a local query point, calling `f(slot, offset, d2)`.
+    #[inline]
+    fn for_each_within_slots(
+        &self,
+        ql: [f64; 3],
+        r: f64,
+        f: &mut impl FnMut(usize, [f64; 3], f64),
+    ) {
         let r2 = r * r;
         // `as` saturates: an infinite radius spans the whole grid.
         let span = if r <= self.cell * (1.0 + 1e-12) {
@@ -434,7 +489,7 @@ impl Grid {
             for (key, s0, s1) in self.occupied() {
                 let cell = self.cell_of_key(key);
                 if (0..3).all(|k| (lo[k]..=hi[k]).contains(&(cell[k] as i64))) {
-                    self.scan(s0..s1, ql, r2, &mut f);
+                    self.scan(s0..s1, ql, r2, f);
                 }
             }
             return;
@@ -443,7 +498,7 @@ impl Grid {
             for y in lo[1]..=hi[1] {
                 let row = self.row_key(y, z);
                 let (a, b) = self.slots(row + lo[0] as Key, row + hi[0] as Key);
-                self.scan(a..b, ql, r2, &mut f);
+                self.scan(a..b, ql, r2, f);
             }
         }
     }
@@ -1061,6 +1116,45 @@ mod tests {
                 .chain(pts[..20].iter().copied())
             {
                 assert_eq!(grid.within(q, r), brute_within(&pts, q, r), "r={r} q={q:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn weighted_block_scan_weighs_exactly_the_points_within_the_radius() {
+        let pts = random_cloud(3000, 17, 10.0, 0.0);
+        let grid = Grid::new(&pts, 1.0).unwrap();
+        let ids = grid.in_slot_order(&(0..pts.len() as u32).collect::<Vec<_>>());
+        for block in grid.blocks().iter().step_by(7) {
+            for &i in grid.slot_ids(block.slots.clone()) {
+                let q = pts[i as usize];
+                // Within the cell (weights 0 and 1) and wider (the ring scan, weight 1).
+                for r in [0.6, 1.0, 1.7] {
+                    let mut got = Vec::new();
+                    let mut sum = [0.0; 3];
+                    grid.for_each_in_block_weighted(block, q, r, |s, d, w| {
+                        assert!(w == 0.0 || w == 1.0);
+                        if w == 1.0 {
+                            got.push(ids[s]);
+                        }
+                        for k in 0..3 {
+                            sum[k] += w * d[k];
+                        }
+                    });
+                    got.sort_unstable();
+                    let want = brute_within(&pts, q, r);
+                    assert_eq!(got, want, "r={r} q={q:?}");
+                    let mut exact = [0.0; 3];
+                    grid.for_each_within_block(block, q, r, |_, d, _| {
+                        for k in 0..3 {
+                            exact[k] += d[k];
+                        }
+                    });
+                    assert_eq!(
+                        sum, exact,
+                        "weighted sums must equal the plain ones bit for bit"
+                    );
+                }
             }
         }
     }

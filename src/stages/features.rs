@@ -170,11 +170,9 @@ pub fn features(
                     let var = var_of(i as usize);
                     let mut m = [0.0f64; 10];
                     match &crowd {
-                        None => {
-                            grid.for_each_within_block(block, q, r, |_, d, _| {
-                                add_moments(&mut m, d)
-                            });
-                        }
+                        None => grid.for_each_in_block_weighted(block, q, r, |_, d, w| {
+                            add_moments_weighted(&mut m, d, w)
+                        }),
                         Some(c) => c.grid.for_each_within(q, r, |k, d, _| {
                             add_moments_weighted(&mut m, d, c.weight[k as usize])
                         }),
@@ -213,6 +211,12 @@ pub fn features(
     let mut split = vec![0.0f32; n];
     let mut direction = vec![[0.0f32; 3]; n];
     let mut corner = vec![0.0f32; n];
+    // The neighbours' normals in the grid's slot order, read in order by the block scans
+    // (`Grid::for_each_in_block_weighted`), or by id when a crowd stands in.
+    let normals = match &crowd {
+        None => grid.in_slot_order(&normal),
+        Some(_) => normal.clone(),
+    };
     let pass2: Vec<(u32, f32, [f32; 3], f32)> = blocks
         .par_chunks(chunk)
         .flat_map_iter(|blocks| {
@@ -221,7 +225,7 @@ pub fn features(
                 for &i in grid.slot_ids(block.slots.clone()) {
                     let r = f64::from(scale.radius[i as usize]);
                     let q = positions[i as usize];
-                    let (t, d) = normal_tensor(grid, crowd.as_ref(), block, &normal, q, r);
+                    let (t, d) = normal_tensor(grid, crowd.as_ref(), block, &normals, q, r);
                     rows.push((i, t[1] as f32, d.map(|c| c as f32), t[0] as f32));
                 }
             }
@@ -265,7 +269,8 @@ pub fn features(
 }
 
 /// Eigenvalues (ascending) of the mean normal tensor around `q`, and its smallest eigenvector.
-/// With a crowd, over its kept points, weighted.
+/// `normal` is in the grid's slot order, or by id with a crowd (over its kept points,
+/// weighted).
 fn normal_tensor(
     grid: &Grid,
     crowd: Option<&Crowd>,
@@ -288,7 +293,7 @@ fn normal_tensor(
         c += w;
     };
     match crowd {
-        None => grid.for_each_within_block(block, q, r, |j, _, _| add(normal[j as usize], 1.0)),
+        None => grid.for_each_in_block_weighted(block, q, r, |s, _, w| add(normal[s], w)),
         Some(crowd) => crowd.grid.for_each_within(q, r, |k, _, _| {
             add(
                 normal[crowd.ids[k as usize] as usize],
