@@ -60,6 +60,9 @@ const ON_CANDIDATES: f64 = 2.5;
 const FACE_NEAR: f64 = 4.0;
 /// Corners closer than this many radii are one (the best supported kept, the faces pooled).
 const SAME_CORNER: f64 = 2.0;
+/// ...and each one's faces pass within this many noise sigmas plus spacings of the other.
+const SAME_PLANE_SIGMAS: f64 = 3.0;
+const SAME_PLANE_SLACK: f64 = 0.5;
 
 /// The corners where three or more planar faces meet (see [`FaceCorner`]): every triple of
 /// faces seen together from edge candidates, their planes intersected, kept where the point
@@ -207,10 +210,22 @@ pub fn face_corners(
     found.sort_by(|a, b| b.support.cmp(&a.support).then(a.faces.cmp(&b.faces)));
     let mut kept: Vec<FaceCorner> = Vec::new();
     for c in found {
+        // One corner when near and every face of either passes through the other's point
+        // within noise: where four faces meet (a pyramid's apex) all their triples agree,
+        // while the corners of a small hole, a few spacings apart, each have a face that
+        // passes far from the others (merged, they became one corner of four or more
+        // faces, their edges duplicated along every pair).
+        let through = |k: &FaceCorner, c: &FaceCorner| {
+            let tol = SAME_PLANE_SIGMAS * k.scale.noise + SAME_PLANE_SLACK * k.scale.spacing;
+            c.faces
+                .iter()
+                .all(|&f| faces.planes[f as usize].distance(k.position).abs() <= tol)
+        };
         let same = kept.iter_mut().find(|k| {
             norm(sub(k.position, c.position)) < SAME_CORNER * k.scale.radius.max(c.scale.radius)
         });
         match same {
+            Some(k) if !(through(k, &c) && through(&c, k)) => {}
             Some(k) => {
                 for f in c.faces {
                     if !k.faces.contains(&f) {
