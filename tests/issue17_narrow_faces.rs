@@ -10,25 +10,14 @@
 //! Checked on r002 itself (every corner found, within half a spacing) and on random parts
 //! drawn from seeds this file fixes: the corners whose shortest edge is 4–10 spacings long.
 
-use sharpedge::config::Settings;
+mod synth_common;
+
 use sharpedge::geometry::dist;
 use sharpedge::outcome::Outcome;
-use sharpedge::pipeline::{NoClock, process};
-use sharpedge::synth::{GroundTruth, Part, Sampling, SynthParams, generate};
+use sharpedge::synth::{GroundTruth, Part};
 
 fn run(points: usize, noise: f64, round: f64, seed: u64) -> (Outcome, GroundTruth) {
-    let params = SynthParams {
-        part: Part::Random,
-        sampling: Sampling::Points(points),
-        noise,
-        round,
-        rotate: true,
-        seed,
-        ..Default::default()
-    };
-    let s = generate(&params).unwrap();
-    let out = process(s.cloud, &Settings::default(), &mut NoClock).unwrap();
-    (out, s.ground_truth)
+    synth_common::run_part(Part::Random, points, noise, round, seed)
 }
 
 /// Distance from each true corner to the nearest found one, in spacings, with the length of

@@ -9,25 +9,14 @@
 //! tenth of a spacing; the short edges between them are reported; nothing is reported on a
 //! smooth sphere.
 
-use sharpedge::config::Settings;
+mod synth_common;
+
 use sharpedge::geometry::dist;
 use sharpedge::outcome::Outcome;
-use sharpedge::pipeline::{NoClock, process};
-use sharpedge::synth::{GroundTruth, Part, Sampling, SynthParams, generate};
+use sharpedge::synth::{GroundTruth, Part};
 
 fn run(part: Part, points: usize, noise: f64, seed: u64) -> (Outcome, GroundTruth) {
-    let params = SynthParams {
-        part,
-        sampling: Sampling::Points(points),
-        noise,
-        round: 1.0,
-        rotate: true,
-        seed,
-        ..Default::default()
-    };
-    let s = generate(&params).unwrap();
-    let out = process(s.cloud, &Settings::default(), &mut NoClock).unwrap();
-    (out, s.ground_truth)
+    synth_common::run_part(part, points, noise, 1.0, seed)
 }
 
 #[test]

@@ -10,11 +10,11 @@
 //! wide fillets are not checked here: an edge found along the middle of a 10-spacing fillet
 //! at 134° is a known open problem of issue 17 (the zone measured at the band's limit).
 
-use sharpedge::config::Settings;
+mod synth_common;
+
 use sharpedge::geometry::lines::point_segment;
 use sharpedge::left_out::Reason;
-use sharpedge::pipeline::{NoClock, process};
-use sharpedge::synth::{Part, Sampling, SynthParams, generate};
+use sharpedge::synth::Part;
 
 /// Points along a polyline, about one per `step`.
 fn along(polyline: &[[f64; 3]], step: f64) -> Vec<[f64; 3]> {
@@ -36,19 +36,8 @@ fn along(polyline: &[[f64; 3]], step: f64) -> Vec<[f64; 3]> {
 /// distance (in spacings) of its polyline to the nearest true edge, and how many runs were
 /// left out as scattered.
 fn edge_offsets(seed: u64, points: usize, noise: f64, round: f64) -> (Vec<f64>, usize) {
-    let params = SynthParams {
-        part: Part::Random,
-        sampling: Sampling::Points(points),
-        noise,
-        round,
-        rotate: true,
-        seed,
-        ..Default::default()
-    };
-    let s = generate(&params).unwrap();
-    let gt = s.ground_truth;
+    let (out, gt) = synth_common::run_part(Part::Random, points, noise, round, seed);
     let h = gt.spacing;
-    let out = process(s.cloud, &Settings::default(), &mut NoClock).unwrap();
     let offsets = out
         .edges
         .iter()

@@ -376,9 +376,9 @@ fn narrow_faces(
     drop_edge_bands(positions, full, scale, &by_id, first, state);
 }
 
-/// Two faces are one plane when their normals are within this many degrees and each one's
-/// centroid lies within `PLANE_SIGMAS` noise sigmas (+ `PLANE_SLACK` spacings) of the other's
-/// plane.
+/// A narrow face whose normal is within this many degrees of a face it touches continues
+/// that face (its edge band, tilted by the rounding); the faces of the parts users bring
+/// turn by 20° or more at their edges.
 const SAME_PLANE_DEGREES: f64 = 12.0;
 
 /// A narrow face is at least this many spacings wide (across its shorter axis): strips
@@ -491,9 +491,20 @@ fn turn_across(positions: &[[f64; 3]], normals: &[[f32; 3]], ids: &[u32], plane:
 /// The width of the face `ids` across its shorter in-plane axis (√12 × the RMS extent: a
 /// uniform strip's width) and that axis.
 fn width(positions: &[[f64; 3]], ids: &[u32], plane: &Plane) -> (f64, [f64; 3]) {
+    let (values, vectors) = principal_axes(positions, ids, plane.centroid);
+    ((12.0 * values[1].max(0.0)).sqrt(), vectors[1])
+}
+
+/// The variances of the points `ids` about `centre` along their principal axes and the
+/// axes, largest first (on a face: the longer in-plane axis, the shorter one, the normal).
+fn principal_axes(
+    positions: &[[f64; 3]],
+    ids: &[u32],
+    centre: [f64; 3],
+) -> ([f64; 3], [[f64; 3]; 3]) {
     let mut m = [0.0; 10];
     for &i in ids {
-        add_moments(&mut m, sub(positions[i as usize], plane.centroid));
+        add_moments(&mut m, sub(positions[i as usize], centre));
     }
     let n = m[0];
     let cov = [
@@ -501,9 +512,7 @@ fn width(positions: &[[f64; 3]], ids: &[u32], plane: &Plane) -> (f64, [f64; 3]) 
         [m[5] / n, m[7] / n, m[8] / n],
         [m[6] / n, m[8] / n, m[9] / n],
     ];
-    let (values, vectors) = crate::geometry::sym_eigen(&cov);
-    // Descending: the longer in-plane axis, the shorter one, the normal.
-    ((12.0 * values[1].max(0.0)).sqrt(), vectors[1])
+    crate::geometry::sym_eigen(&cov)
 }
 
 /// A small neighbourhood is flat when its out-of-plane variance is at most this many noise
@@ -550,17 +559,7 @@ const FOLD_MIN_WIDTH: f64 = 4.0;
 /// Whether the face `ids` (plane `plane`) bends: see [`FOLD_DEGREES`].
 fn folds(positions: &[[f64; 3]], ids: &[u32], origin: [f64; 3], plane: &Plane) -> bool {
     // The face's principal axes in its plane.
-    let mut m = [0.0; 10];
-    for &i in ids {
-        add_moments(&mut m, sub(positions[i as usize], plane.centroid));
-    }
-    let n = m[0];
-    let cov = [
-        [m[4] / n, m[5] / n, m[6] / n],
-        [m[5] / n, m[7] / n, m[8] / n],
-        [m[6] / n, m[8] / n, m[9] / n],
-    ];
-    let (values, vectors) = crate::geometry::sym_eigen(&cov);
+    let (values, vectors) = principal_axes(positions, ids, plane.centroid);
     let (e1, e2) = (vectors[0], vectors[1]);
     let h = std::f64::consts::FRAC_1_SQRT_2;
     let diagonal = |s: f64| [0, 1, 2].map(|k| h * (e1[k] + s * e2[k]));
