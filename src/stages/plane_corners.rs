@@ -210,11 +210,11 @@ pub fn face_corners(
     found.sort_by(|a, b| b.support.cmp(&a.support).then(a.faces.cmp(&b.faces)));
     let mut kept: Vec<FaceCorner> = Vec::new();
     for c in found {
-        // One corner when near and every face of either passes through the other's point
-        // within noise: where four faces meet (a pyramid's apex) all their triples agree,
-        // while the corners of a small hole, a few spacings apart, each have a face that
-        // passes far from the others (merged, they became one corner of four or more
-        // faces, their edges duplicated along every pair).
+        // A corner near a kept one joins it when every face of either passes through the
+        // other's point within noise: where four faces meet (a pyramid's apex) all their
+        // triples agree. A near one that does not is a weaker triple's point among a small
+        // hole's walls and is left out: pooling its faces made one corner of four or more
+        // faces there, placed by all their planes, its edges duplicated along every pair.
         let through = |k: &FaceCorner, c: &FaceCorner| {
             let tol = SAME_PLANE_SIGMAS * k.scale.noise + SAME_PLANE_SLACK * k.scale.spacing;
             c.faces
