@@ -23,6 +23,9 @@ use crate::error::{Error, Result};
 /// A packed cell key: three cell coordinates of up to 2^42 + 1 values each.
 type Key = u128;
 
+/// An occupied cell: its key, first slot and end slot.
+type Occupied = (Key, usize, usize);
+
 /// Cell coordinates are clamped to ±this many cells around the grid's origin.
 const FAR_CELL: i64 = 1 << 41;
 
@@ -252,14 +255,7 @@ impl Grid {
     /// with bounded work per query. Scanned clouds have no such cell (their densest cells
     /// hold a few times the median), so their results do not change.
     pub fn crowd(&self, positions: &[[f64; 3]], factor: usize, floor: usize) -> Option<Crowd> {
-        let cells = self.occupied();
-        let mut counts: Vec<usize> = cells.iter().map(|&(_, a, b)| b - a).collect();
-        let mid = counts.len() / 2;
-        let median = *counts.select_nth_unstable(mid).1;
-        let cap = (factor * median).max(floor).max(1);
-        if cells.iter().all(|&(_, a, b)| b - a <= cap) {
-            return None;
-        }
+        let (cells, cap) = self.crowded_cells(factor, floor)?;
         let mut kept: Vec<(u32, f64)> = Vec::new();
         for &(_, a, b) in &cells {
             let len = b - a;
@@ -280,8 +276,27 @@ impl Grid {
         })
     }
 
+    /// Whether some cell is crowded (see [`Self::crowd`]).
+    pub fn is_crowded(&self, factor: usize, floor: usize) -> bool {
+        self.crowded_cells(factor, floor).is_some()
+    }
+
+    /// The occupied cells and the most points a cell may hold before it is crowded, when
+    /// some cell holds more.
+    fn crowded_cells(&self, factor: usize, floor: usize) -> Option<(Vec<Occupied>, usize)> {
+        let cells = self.occupied();
+        let mut counts: Vec<usize> = cells.iter().map(|&(_, a, b)| b - a).collect();
+        let mid = counts.len() / 2;
+        let median = *counts.select_nth_unstable(mid).1;
+        let cap = (factor * median).max(floor).max(1);
+        cells
+            .iter()
+            .any(|&(_, a, b)| b - a > cap)
+            .then_some((cells, cap))
+    }
+
     /// The occupied cells in key order: (key, first slot, end slot).
-    fn occupied(&self) -> Vec<(Key, usize, usize)> {
+    fn occupied(&self) -> Vec<Occupied> {
         match &self.layout {
             Layout::Dense { starts } => (0..starts.len() - 1)
                 .filter(|&c| starts[c] < starts[c + 1])

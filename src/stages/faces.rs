@@ -333,8 +333,9 @@ fn narrow_faces(
         return;
     };
     // A crowded cloud grows no narrow faces: their growth reads every candidate's
-    // neighbours, and the crowd's kept share (`Grid::crowd`) would not stand for the rest.
-    if grid.crowd(&sub, CROWD_FACTOR, CROWD_FLOOR).is_some() {
+    // neighbours, and checking them against the faces they touch reads all points near
+    // them; the crowd's kept share (`Grid::crowd`) would not stand for the rest.
+    if grid.is_crowded(CROWD_FACTOR, CROWD_FLOOR) || full.is_crowded(CROWD_FACTOR, CROWD_FLOOR) {
         return;
     }
     let (normals, flatness) = small_normals(positions, scale, &ids, &grid);
