@@ -372,6 +372,16 @@ impl Grid {
             .collect()
     }
 
+    /// `q` relative to the grid's origin, as the stored positions are.
+    #[inline]
+    fn local_of(&self, q: [f64; 3]) -> [f64; 3] {
+        [
+            q[0] - self.origin[0],
+            q[1] - self.origin[1],
+            q[2] - self.origin[2],
+        ]
+    }
+
     /// [`Self::for_each_within`] for a query `q` inside `block`'s cell (one of its points),
     /// using the block's slot ranges when `r <= cell()` (wider radii go through
     /// [`Self::for_each_within`]). Same calls in the same order.
@@ -386,11 +396,7 @@ impl Grid {
         if r > self.cell * (1.0 + 1e-12) {
             return self.for_each_within(q, r, f);
         }
-        let ql = [
-            q[0] - self.origin[0],
-            q[1] - self.origin[1],
-            q[2] - self.origin[2],
-        ];
+        let ql = self.local_of(q);
         for &(a, b) in &block.rows[..block.nrows as usize] {
             self.scan(a as usize..b as usize, ql, r * r, &mut |s: usize, d, d2| {
                 f(self.ids[s], d, d2)
@@ -416,11 +422,7 @@ impl Grid {
         r: f64,
         mut f: impl FnMut(usize, [f64; 3], f64),
     ) {
-        let ql = [
-            q[0] - self.origin[0],
-            q[1] - self.origin[1],
-            q[2] - self.origin[2],
-        ];
+        let ql = self.local_of(q);
         if r > self.cell * (1.0 + 1e-12) {
             return self.for_each_within_slots(ql, r, &mut |s, d, _| f(s, d, 1.0));
         }
@@ -466,11 +468,7 @@ impl Grid {
     /// so accumulations are deterministic.
     #[inline]
     pub fn for_each_within(&self, q: [f64; 3], r: f64, mut f: impl FnMut(u32, [f64; 3], f64)) {
-        let ql = [
-            q[0] - self.origin[0],
-            q[1] - self.origin[1],
-            q[2] - self.origin[2],
-        ];
+        let ql = self.local_of(q);
         self.for_each_within_slots(ql, r, &mut |s, d, d2| f(self.ids[s], d, d2));
     }
 
@@ -535,8 +533,8 @@ impl Grid {
         reach: f64,
         mut f: impl FnMut(u32),
     ) {
-        let la = [0, 1, 2].map(|k| a[k] - self.origin[k]);
-        let lb = [0, 1, 2].map(|k| b[k] - self.origin[k]);
+        let la = self.local_of(a);
+        let lb = self.local_of(b);
         let ab = [lb[0] - la[0], lb[1] - la[1], lb[2] - la[2]];
         let len2 = ab[0] * ab[0] + ab[1] * ab[1] + ab[2] * ab[2];
         let len = len2.sqrt();

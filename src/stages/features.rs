@@ -213,9 +213,13 @@ pub fn features(
     let mut corner = vec![0.0f32; n];
     // The neighbours' normals in the grid's slot order, read in order by the block scans
     // (`Grid::for_each_in_block_weighted`), or by id when a crowd stands in.
-    let normals = match &crowd {
-        None => grid.in_slot_order(&normal),
-        Some(_) => normal.clone(),
+    let in_slots;
+    let normals: &[[f32; 3]] = match &crowd {
+        None => {
+            in_slots = grid.in_slot_order(&normal);
+            &in_slots
+        }
+        Some(_) => &normal,
     };
     let pass2: Vec<(u32, f32, [f32; 3], f32)> = blocks
         .par_chunks(chunk)
@@ -225,7 +229,7 @@ pub fn features(
                 for &i in grid.slot_ids(block.slots.clone()) {
                     let r = f64::from(scale.radius[i as usize]);
                     let q = positions[i as usize];
-                    let (t, d) = normal_tensor(grid, crowd.as_ref(), block, &normals, q, r);
+                    let (t, d) = normal_tensor(grid, crowd.as_ref(), block, normals, q, r);
                     rows.push((i, t[1] as f32, d.map(|c| c as f32), t[0] as f32));
                 }
             }
