@@ -22,20 +22,13 @@ pub struct LocalPca {
 /// Adds an offset to the raw moments [n, Σx, Σy, Σz, Σxx, Σxy, Σxz, Σyy, Σyz, Σzz].
 #[inline]
 pub fn add_moments(m: &mut [f64; 10], d: [f64; 3]) {
-    m[0] += 1.0;
-    m[1] += d[0];
-    m[2] += d[1];
-    m[3] += d[2];
-    m[4] += d[0] * d[0];
-    m[5] += d[0] * d[1];
-    m[6] += d[0] * d[2];
-    m[7] += d[1] * d[1];
-    m[8] += d[1] * d[2];
-    m[9] += d[2] * d[2];
+    // Weight 1: every product as without it (x · 1 = x exactly, and the compiler drops it).
+    add_moments_weighted(m, d, 1.0);
 }
 
-/// Adds an offset standing for `w` points (a crowded cloud's kept point:
-/// `neighbours::Grid::crowd`).
+/// Adds an offset standing for `w` points: a crowded cloud's kept point
+/// (`neighbours::Grid::crowd`), or 0/1 by distance in a branch-free neighbourhood sum
+/// (`neighbours::Grid::for_each_in_block_weighted`).
 #[inline]
 pub fn add_moments_weighted(m: &mut [f64; 10], d: [f64; 3], w: f64) {
     m[0] += w;
