@@ -94,12 +94,79 @@ pub struct Source {
     pub double_precision: bool,
 }
 
+/// A rigid pose: `p_cloud = rotation · p_scan + translation`, the rotation a unit quaternion
+/// `[w, x, y, z]` (E57's and PCD's VIEWPOINT convention).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Pose {
+    pub rotation: [f64; 4],
+    pub translation: [f64; 3],
+}
+
+impl Default for Pose {
+    fn default() -> Self {
+        Pose {
+            rotation: [1.0, 0.0, 0.0, 0.0],
+            translation: [0.0; 3],
+        }
+    }
+}
+
+/// One scan (setup) of the scanner: where the sensor stood and, for a structured scan, the
+/// size of its grid of rows and columns.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Scan {
+    /// The scan's name in the file (E57 `name`, or the file name), for `info` and logs.
+    pub name: String,
+    /// The scan's pose in the cloud's coordinates; its translation is the sensor origin.
+    pub pose: Pose,
+    /// `[rows, columns]` of the scan's grid (an organised PCD: `[HEIGHT, WIDTH]`); `None` for
+    /// an unstructured scan.
+    pub grid_size: Option<[u32; 2]>,
+}
+
+/// How the scanner saw the points, where the file records it (organised PCD, E57 scans): which
+/// scan each point came from, where that scan's sensor stood, and the point's row and column
+/// in the scan's grid. Clouds without it (PLY, LAS, XYZ) carry `None`, and every stage works
+/// without it.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct ScanStructure {
+    pub scans: Vec<Scan>,
+    /// Per point: the index of its scan in `scans`.
+    pub scan: Vec<u32>,
+    /// Per point: `[row, column]` in its scan's grid; empty when no scan is structured.
+    pub grid: Vec<[u32; 2]>,
+}
+
+impl ScanStructure {
+    /// The sensor origin of point `i`.
+    pub fn origin_of(&self, i: usize) -> [f64; 3] {
+        self.scans[self.scan[i] as usize].pose.translation
+    }
+
+    fn retain_mask(&mut self, keep: &[bool]) {
+        let mut it = keep.iter();
+        self.scan.retain(|_| *it.next().unwrap_or(&false));
+        if !self.grid.is_empty() {
+            let mut it = keep.iter();
+            self.grid.retain(|_| *it.next().unwrap_or(&false));
+        }
+    }
+
+    fn is_consistent(&self, n: usize) -> bool {
+        self.scan.len() == n
+            && (self.grid.is_empty() || self.grid.len() == n)
+            && self.scan.iter().all(|&s| (s as usize) < self.scans.len())
+    }
+}
+
 /// A point cloud: positions plus carried attributes, all of the same length.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Cloud {
     pub positions: Vec<[f64; 3]>,
     pub attributes: Vec<Attribute>,
     pub source: Source,
+    /// The scan structure, where the input has one.
+    pub structure: Option<ScanStructure>,
 }
 
 impl Cloud {
@@ -149,6 +216,9 @@ impl Cloud {
         for a in &mut self.attributes {
             a.values.retain_mask(keep);
         }
+        if let Some(s) = &mut self.structure {
+            s.retain_mask(keep);
+        }
     }
 
     /// Checks that every attribute has one value per point (a reader bug otherwise).
@@ -156,6 +226,10 @@ impl Cloud {
         self.attributes
             .iter()
             .all(|a| a.values.len() == self.positions.len())
+            && self
+                .structure
+                .as_ref()
+                .is_none_or(|s| s.is_consistent(self.positions.len()))
     }
 }
 
@@ -170,8 +244,15 @@ mod tests {
             name: "intensity".into(),
             values: Column::U16(vec![10, 11, 12]),
         });
+        c.structure = Some(ScanStructure {
+            scans: vec![Scan::default()],
+            scan: vec![0, 0, 0],
+            grid: vec![[0, 0], [0, 1], [0, 2]],
+        });
         c.retain_mask(&[true, false, true]);
         assert_eq!(c.positions, vec![[0.0; 3], [2.0; 3]]);
+        let s = c.structure.as_ref().unwrap();
+        assert_eq!((s.scan.len(), s.grid.clone()), (2, vec![[0, 0], [0, 2]]));
         assert_eq!(c.attributes[0].values, Column::U16(vec![10, 12]));
         assert!(c.is_consistent());
     }

@@ -26,7 +26,7 @@ pub mod synth;
 #[cfg(test)]
 pub(crate) mod testdata;
 
-pub use cloud::{Attribute, Cloud, Column, Source};
+pub use cloud::{Attribute, Cloud, Column, Pose, Scan, ScanStructure, Source};
 // The stages' public paths of before they were grouped under stages/ (sharpedge::features,
 // ...) keep working; inside the crate they are named by their place (crate::stages::...).
 pub use error::{Error, Result};

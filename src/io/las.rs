@@ -370,6 +370,7 @@ fn read_lidar_on(path: &Path, keep_records: bool) -> Result<(Loaded, Lidar)> {
                 format: description,
                 double_precision,
             },
+            structure: None,
         },
         properties,
         other_elements: Vec::new(),

@@ -486,6 +486,7 @@ pub(crate) fn read(path: &Path, path_choice: VertexPath) -> Result<Loaded> {
                 format: format!("PLY {} {}", header.encoding, header.version),
                 double_precision,
             },
+            structure: None,
         },
         properties,
         other_elements,

@@ -338,6 +338,7 @@ pub(crate) fn read(path: &Path) -> Result<Loaded> {
                 format: format!("XYZ text, {columns}"),
                 double_precision,
             },
+            structure: None,
         },
         properties,
         other_elements: Vec::new(),

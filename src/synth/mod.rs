@@ -1005,6 +1005,7 @@ fn finish_scan(
                 format: format!("sharpedge synth {} (seed {})", p.part.name(), p.seed),
                 double_precision: double,
             },
+            structure: None,
         },
         truth,
         ground_truth,
