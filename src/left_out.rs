@@ -27,6 +27,9 @@ pub enum Reason {
     Scattered,
     /// Too short between its vertices for any slab to keep clear of them.
     TooShort,
+    /// Where the sensor's view of a surface ends (a depth jump, a face seen edge-on): a
+    /// border of the scan, not an edge of the part (`stages::occlusion`).
+    Occlusion,
     /// A vertex whose edges were left out (fewer than two fitted edges reach it).
     EdgesLeftOut,
     /// Where the edges meet no scan point comes near: a virtual corner of edges running into
@@ -48,6 +51,7 @@ impl Reason {
             Reason::OneSurface => "one_surface",
             Reason::Scattered => "scattered",
             Reason::TooShort => "too_short",
+            Reason::Occlusion => "occlusion_boundary",
             Reason::EdgesLeftOut => "edges_left_out",
             Reason::VirtualCorner => "virtual_corner",
             Reason::Failed => "failed",

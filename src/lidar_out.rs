@@ -43,6 +43,8 @@ pub fn write_rectified(
         .map(|i| {
             if let Some(e) = edge_code(outcome.edge_label[i]) {
                 e
+            } else if outcome.border[i] {
+                kind::BORDER
             } else if f.outlier[i] {
                 kind::OUTLIER
             } else if f.candidate[i] {

@@ -28,6 +28,10 @@ pub mod kind {
     pub const EDGE: u8 = 2;
     /// Isolated (too few neighbours): never a candidate, never moved.
     pub const OUTLIER: u8 = 3;
+    /// On an occlusion boundary (where the sensor's view of a surface ends: by a depth jump
+    /// of the scan's grid, on a face seen edge-on, in a run judged a border): never moved
+    /// unless it is in an edge's zone, which comes first.
+    pub const BORDER: u8 = 4;
 }
 
 /// Wall time of one stage.
@@ -51,6 +55,9 @@ pub struct Outcome {
     pub moved: Vec<bool>,
     /// Edge id of every point (`u32::MAX` for none).
     pub edge_label: Vec<u32>,
+    /// Points on an occlusion boundary (`kind::BORDER`): by a depth jump of the scan's grid,
+    /// on a face seen edge-on from the sensor, or in a run judged an occlusion boundary.
+    pub border: Vec<bool>,
     /// Every candidate that gave no edge or corner, with its reason: judged no sharp edge, or
     /// a fit that failed (counted and reported, never fatal).
     pub left_out: Vec<LeftOut>,

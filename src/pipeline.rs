@@ -14,7 +14,7 @@ use crate::cloud::Cloud;
 use crate::config::Settings;
 use crate::error::{Error, Result};
 use crate::io;
-use crate::left_out::{LeftOut, Tally};
+use crate::left_out::{LeftOut, Reason, Tally};
 use crate::neighbours::{self, Distinct, Grid, KdTree};
 use crate::outcome::{self, Outcome, Timing, describe};
 use crate::progress::Progress;
@@ -24,6 +24,7 @@ use crate::stages::corners::{self, CornerFit};
 use crate::stages::edges;
 use crate::stages::faces;
 use crate::stages::features::{self, Features, Scale};
+use crate::stages::occlusion;
 use crate::stages::plane_corners;
 use crate::stages::rectify;
 use crate::stages::scale;
@@ -194,7 +195,12 @@ pub fn process(cloud: Cloud, settings: &Settings, clock: &mut impl LapClock) -> 
     let features = features::features(positions, &grid, &local, &settings.features, &progress);
     drop(progress);
     clock.lap("features");
-    let planar = faces::planar_faces(positions, &grid, &features, &local);
+    let mut planar = faces::planar_faces(positions, &grid, &features, &local);
+    // Occlusion boundaries (a depth jump of the scan's grid, a face seen edge-on from the
+    // sensor) are borders of the scan: no face, and their runs no sharp edge.
+    let borders = Borders::new(&cloud, &distinct, &settings.input.sensors);
+    let mut border = borders.jump.clone();
+    borders.drop_faces(&mut planar, &mut border);
     tracing::info!("{} planar faces", planar.planes.len());
     for (k, p) in planar.planes.iter().enumerate() {
         tracing::debug!(
@@ -226,6 +232,7 @@ pub fn process(cloud: Cloud, settings: &Settings, clock: &mut impl LapClock) -> 
         &settings.fit,
         settings.seed,
     );
+    borders.judge(&mut fits, &segments, &mut border);
     let mut left_out: Vec<LeftOut> = Vec::new();
     // Runs that are no sharp edge (fillets, bending surfaces) took part in vertices: find
     // the vertices again without them and fit the edges that are left anew.
@@ -252,6 +259,7 @@ pub fn process(cloud: Cloud, settings: &Settings, clock: &mut impl LapClock) -> 
             &settings.fit,
             settings.seed,
         );
+        borders.judge(&mut fits, &segments, &mut border);
     }
     clock.lap("edges");
     let corner_fits = corners::fit_corners(
@@ -364,8 +372,89 @@ pub fn process(cloud: Cloud, settings: &Settings, clock: &mut impl LapClock) -> 
         rectified,
         moved,
         edge_label: distinct.expand(rect.label),
+        border: distinct.expand(border),
         left_out,
     })
+}
+
+/// What tells occlusion boundaries in one cloud (`stages::occlusion`), by distinct position.
+struct Borders<'a> {
+    /// Points next to a depth jump of the scan's grid, by distinct position.
+    jump: Vec<bool>,
+    structure: Option<&'a crate::cloud::ScanStructure>,
+    sensors: &'a [[f64; 3]],
+    distinct: &'a Distinct,
+}
+
+impl<'a> Borders<'a> {
+    fn new(cloud: &'a Cloud, distinct: &'a Distinct, sensors: &'a [[f64; 3]]) -> Self {
+        let structure = cloud.structure.as_ref();
+        let mut jump = occlusion::depth_jumps(&cloud.positions, structure);
+        if distinct.has_duplicates() {
+            jump = distinct.first.iter().map(|&i| jump[i as usize]).collect();
+        }
+        let n = jump.iter().filter(|&&j| j).count();
+        if n > 0 {
+            tracing::debug!("{n} points lie by a depth jump of the scan's grid");
+        }
+        Borders {
+            jump,
+            structure,
+            sensors,
+            distinct,
+        }
+    }
+
+    /// The sensor of these points (distinct positions).
+    fn sensor(&self, points: &[u32]) -> Option<[f64; 3]> {
+        // The scan structure counts points of the cloud, the stages distinct positions.
+        let ids: Vec<u32> = points
+            .iter()
+            .map(|&p| self.distinct.first[p as usize])
+            .collect();
+        occlusion::sensor_of(&ids, self.structure, self.sensors)
+    }
+
+    /// Drops the planar faces on an occlusion boundary (a veil grown as a face) and marks
+    /// their points in `border`.
+    fn drop_faces(&self, planar: &mut faces::Faces, border: &mut [bool]) {
+        let members = planar.members();
+        let keep: Vec<bool> = planar
+            .planes
+            .iter()
+            .zip(&members)
+            .enumerate()
+            .map(|(k, (plane, pts))| {
+                let why = occlusion::is_border_face(plane, pts, &self.jump, self.sensor(pts));
+                if let Some(why) = &why {
+                    tracing::debug!("face {k} is an occlusion boundary: {why}");
+                    for &p in pts {
+                        border[p as usize] = true;
+                    }
+                }
+                why.is_none()
+            })
+            .collect();
+        planar.retain(&keep);
+    }
+
+    /// Turns the fitted edges on an occlusion boundary into runs judged no sharp edge, and
+    /// marks their points in `border`.
+    fn judge(&self, fits: &mut [edges::EdgeResult], segments: &Segments, border: &mut [bool]) {
+        for f in fits.iter_mut() {
+            let Ok(fit) = f else { continue };
+            let run = &segments.runs[fit.run].points;
+            if let Some(why) = occlusion::is_border(fit, run, &self.jump, self.sensor(run)) {
+                for &p in run {
+                    border[p as usize] = true;
+                }
+                *f = Err(edges::EdgeError::judged(
+                    Reason::Occlusion,
+                    format!("edge {}: {why}", fit.run),
+                ));
+            }
+        }
+    }
 }
 
 /// The per-point features of the distinct positions, for every point of the cloud.

@@ -158,7 +158,7 @@ pub struct EdgeError {
 
 impl EdgeError {
     /// A run judged no sharp edge.
-    fn judged(reason: Reason, message: String) -> Self {
+    pub(crate) fn judged(reason: Reason, message: String) -> Self {
         EdgeError {
             reason,
             message,

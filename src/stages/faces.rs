@@ -94,6 +94,24 @@ pub struct Faces {
     pub planes: Vec<Plane>,
 }
 
+impl Faces {
+    /// Keeps the faces whose `keep` flag is set; the points of the others are on no face.
+    pub fn retain(&mut self, keep: &[bool]) {
+        retain_planes(&mut self.planes, &mut self.label, keep);
+    }
+
+    /// The points of each face, by id.
+    pub fn members(&self) -> Vec<Vec<u32>> {
+        let mut m = vec![Vec::new(); self.planes.len()];
+        for (i, &l) in self.label.iter().enumerate() {
+            if l != NO_FACE {
+                m[l as usize].push(i as u32);
+            }
+        }
+        m
+    }
+}
+
 /// Grows the planar faces of the scan (see the module comment).
 pub fn planar_faces(
     positions: &[[f64; 3]],
@@ -435,16 +453,22 @@ fn drop_edge_bands(
             keep[id] = false;
         }
     }
-    let mut new_id = vec![NO_FACE; n_planes];
-    let mut planes = Vec::new();
-    for (id, plane) in state.planes.drain(..).enumerate() {
+    retain_planes(&mut state.planes, &mut state.label, &keep);
+}
+
+/// Keeps the planes whose `keep` flag is set, renumbering the labels (those of a dropped plane
+/// become `NO_FACE`).
+fn retain_planes(planes: &mut Vec<Plane>, label: &mut [u32], keep: &[bool]) {
+    let mut new_id = vec![NO_FACE; planes.len()];
+    let mut kept = Vec::new();
+    for (id, plane) in planes.drain(..).enumerate() {
         if keep[id] {
-            new_id[id] = planes.len() as u32;
-            planes.push(plane);
+            new_id[id] = kept.len() as u32;
+            kept.push(plane);
         }
     }
-    state.planes = planes;
-    for l in state.label.iter_mut() {
+    *planes = kept;
+    for l in label.iter_mut() {
         if *l != NO_FACE {
             *l = new_id[*l as usize];
         }

@@ -14,6 +14,7 @@ pub mod corners;
 pub mod edges;
 pub mod faces;
 pub mod features;
+pub mod occlusion;
 pub mod plane_corners;
 pub mod rectify;
 pub mod scale;

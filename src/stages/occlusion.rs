@@ -1,0 +1,333 @@
+//! Occlusion boundaries: where the sensor's view of a surface ends. A run of edge candidates
+//! there is a border of the scan, never a sharp edge of the part (issue 16, item 4; issue 17,
+//! item 3).
+//!
+//! Two signs, each used where the input gives what it needs:
+//! - **A depth jump on the scan's grid** (organised PCD frames, structured E57 scans): two
+//!   neighbouring cells whose ranges differ by more than a surface seen at
+//!   [`MAX_INCIDENCE_DEG`] could give. The silhouette of an object against what lies behind
+//!   it, a table's far rim. Both cells, and the cells within [`JUMP_REACH`] of them, are
+//!   marked ([`depth_jumps`]).
+//! - **A face seen edge-on** from the sensor: a fitted edge whose face trace runs along the
+//!   sensor's ray (within 90° − [`MAX_INCIDENCE_DEG`]) in most of its slabs. A depth camera
+//!   leaves a veil of mixed pixels between a silhouette and the background, which the fit
+//!   takes for a second face; no real face is sampled at such an angle. It needs the sensor
+//!   position: the point's scan pose, or the one `input.sensors` entry.
+//!
+//! Inputs: positions, the cloud's [`ScanStructure`] (optional), the sensors, the fitted edges
+//! and their runs. Output: per point the jump marks, and per fitted edge whether it is an
+//! occlusion boundary ([`is_border`]). Clouds without a grid or a sensor get no mark and no
+//! border: every stage works as before on them.
+
+use crate::cloud::ScanStructure;
+use crate::geometry::{add, cross, dot, norm, sub};
+use crate::stages::edges::EdgeFit;
+use crate::stages::faces::Plane;
+
+/// Beyond this angle between a surface's normal and the sensor's ray the surface counts as
+/// seen edge-on (degrees). Structured light and time of flight sample a face at 80° with
+/// neighbouring cells 5.8 times farther apart than face-on; PCL's organised edge detection
+/// calls a relative depth step of 2 % per cell (86° at a Kinect's 1.7 mrad pitch) a jump.
+pub const MAX_INCIDENCE_DEG: f64 = 80.0;
+
+/// Grid cells within this many rows or columns of a depth jump are marked with it: the
+/// candidates of an edge fit lie within a few spacings of the boundary.
+pub const JUMP_REACH: u32 = 3;
+
+/// Share of a run's points (or of an edge's slabs) on an occlusion boundary that makes the
+/// whole edge one.
+const BORDER_SHARE: f64 = 0.5;
+
+/// Marks the points next to a depth jump of their scan's grid (see the module comment);
+/// all false when the cloud has no grid. `positions` are in the cloud's order, as
+/// `structure` is.
+pub fn depth_jumps(positions: &[[f64; 3]], structure: Option<&ScanStructure>) -> Vec<bool> {
+    let n = positions.len();
+    let mut jump = vec![false; n];
+    let Some(s) = structure.filter(|s| s.grid.len() == n && s.scan.len() == n) else {
+        return jump;
+    };
+    let slope = MAX_INCIDENCE_DEG.to_radians().tan();
+    for (k, scan) in s.scans.iter().enumerate() {
+        let Some([rows, cols]) = scan.grid_size else {
+            continue;
+        };
+        let (rows, cols) = (rows as usize, cols as usize);
+        let Some(slots) = rows.checked_mul(cols) else {
+            continue;
+        };
+        let origin = scan.pose.translation;
+        // Point id in each cell of this scan's grid (u32::MAX: no point).
+        let mut cell = vec![u32::MAX; slots];
+        for i in 0..n {
+            let [r, c] = s.grid[i];
+            if s.scan[i] as usize == k && (r as usize) < rows && (c as usize) < cols {
+                cell[r as usize * cols + c as usize] = i as u32;
+            }
+        }
+        let mut marked = vec![false; slots];
+        for r in 0..rows {
+            for c in 0..cols {
+                let i = cell[r * cols + c];
+                if i == u32::MAX {
+                    continue;
+                }
+                // Right, down and the two down diagonals: every neighbouring pair once.
+                for (dr, dc) in [(0isize, 1isize), (1, 0), (1, 1), (1, -1)] {
+                    let (r2, c2) = (r as isize + dr, c as isize + dc);
+                    if r2 < 0 || c2 < 0 || r2 as usize >= rows || c2 as usize >= cols {
+                        continue;
+                    }
+                    let j = cell[r2 as usize * cols + c2 as usize];
+                    if j != u32::MAX
+                        && is_jump(positions[i as usize], positions[j as usize], origin, slope)
+                    {
+                        marked[r * cols + c] = true;
+                        marked[r2 as usize * cols + c2 as usize] = true;
+                    }
+                }
+            }
+        }
+        let reach = JUMP_REACH as usize;
+        for r in 0..rows {
+            for c in 0..cols {
+                if !marked[r * cols + c] {
+                    continue;
+                }
+                for r2 in r.saturating_sub(reach)..(r + reach + 1).min(rows) {
+                    for c2 in c.saturating_sub(reach)..(c + reach + 1).min(cols) {
+                        let j = cell[r2 * cols + c2];
+                        if j != u32::MAX {
+                            jump[j as usize] = true;
+                        }
+                    }
+                }
+            }
+        }
+    }
+    jump
+}
+
+/// True when the ranges of `p` and `q` from `origin` differ by more than `slope` times the
+/// step between their rays: the surface between them would be seen beyond
+/// [`MAX_INCIDENCE_DEG`]. Coincident rays (a sensor at one of the points) tell nothing.
+pub fn is_jump(p: [f64; 3], q: [f64; 3], origin: [f64; 3], slope: f64) -> bool {
+    let (a, b) = (sub(p, origin), sub(q, origin));
+    let (ra, rb) = (norm(a), norm(b));
+    if !(ra > 0.0 && rb > 0.0) {
+        return false;
+    }
+    // The lateral step at the nearer range: |a × b| / max(|a|, |b|) = min range · sin(angle).
+    let lateral = norm(cross(a, b)) / ra.max(rb);
+    (ra - rb).abs() > slope * lateral
+}
+
+/// Where the sensor stood for a run's points: the scan of most of them when the cloud
+/// records scans, else the one configured sensor; `None` when neither tells (several
+/// sensors and no scan per point).
+pub fn sensor_of(
+    points: &[u32],
+    structure: Option<&ScanStructure>,
+    sensors: &[[f64; 3]],
+) -> Option<[f64; 3]> {
+    match structure {
+        Some(s) if !s.scans.is_empty() && !s.scan.is_empty() => {
+            let mut count = vec![0usize; s.scans.len()];
+            for &p in points {
+                if let Some(&k) = s.scan.get(p as usize) {
+                    count[k as usize] += 1;
+                }
+            }
+            let best = (0..count.len()).max_by_key(|&k| (count[k], std::cmp::Reverse(k)))?;
+            (count[best] > 0).then(|| s.scans[best].pose.translation)
+        }
+        _ => (sensors.len() == 1).then(|| sensors[0]),
+    }
+}
+
+/// Why a fitted edge is an occlusion boundary, or `None` when it is not. Both signs need
+/// the sensor and an edge that opens away from it (the bisector of its faces points away from
+/// the sensor in most slabs: the foreground face and the veil or background behind it). A
+/// concave edge opens towards the sensor that sees it: its faces meet without a gap, however
+/// steep one of them is, and it stays an edge. Then: most of its run's points lie by a depth
+/// jump (`jump`, from [`depth_jumps`]), or most of its slabs have a face that runs away from
+/// the sensor along its ray.
+pub fn is_border(
+    fit: &EdgeFit,
+    run_points: &[u32],
+    jump: &[bool],
+    sensor: Option<[f64; 3]>,
+) -> Option<String> {
+    let sensor = sensor?;
+    let slabs = fit.slabs.len();
+    if slabs == 0 {
+        return None;
+    }
+    let rays = || {
+        fit.slabs
+            .iter()
+            .map(move |s| (s, sub(s.corner, sensor)))
+            .filter(|(_, ray)| norm(*ray) > 0.0)
+    };
+    let away = rays()
+        .filter(|(s, ray)| dot(add(s.faces[0], s.faces[1]), *ray) > 0.0)
+        .count();
+    if away as f64 <= BORDER_SHARE * slabs as f64 {
+        return None;
+    }
+    let on = run_points
+        .iter()
+        .filter(|&&p| jump.get(p as usize).copied().unwrap_or(false))
+        .count();
+    if !run_points.is_empty() && on as f64 > BORDER_SHARE * run_points.len() as f64 {
+        return Some(format!(
+            "an occlusion boundary: {on} of its {} points lie by a depth jump of the scan's \
+             grid (a silhouette against what lies behind it)",
+            run_points.len()
+        ));
+    }
+    let along = (90.0 - MAX_INCIDENCE_DEG).to_radians().cos();
+    let edge_on = rays()
+        .filter(|(s, ray)| s.faces.iter().any(|f| dot(*f, *ray) > along * norm(*ray)))
+        .count();
+    (edge_on as f64 > BORDER_SHARE * slabs as f64).then(|| {
+        format!(
+            "an occlusion boundary: in {edge_on} of its {slabs} slabs one face runs away from \
+             the sensor along its ray (seen beyond {MAX_INCIDENCE_DEG}° incidence: the veil a \
+             depth camera leaves between a silhouette and the background)"
+        )
+    })
+}
+
+/// Why a planar face is no face of the part, or `None`: seen edge-on from `sensor` (its
+/// normal beyond [`MAX_INCIDENCE_DEG`] of the ray to its centroid: a veil between a
+/// silhouette and the background is flat enough to grow as a face), or most of its points by
+/// a depth jump.
+pub fn is_border_face(
+    plane: &Plane,
+    points: &[u32],
+    jump: &[bool],
+    sensor: Option<[f64; 3]>,
+) -> Option<String> {
+    let on = points
+        .iter()
+        .filter(|&&p| jump.get(p as usize).copied().unwrap_or(false))
+        .count();
+    if !points.is_empty() && on as f64 > BORDER_SHARE * points.len() as f64 {
+        return Some(format!(
+            "{on} of its {} points lie by a depth jump",
+            points.len()
+        ));
+    }
+    let ray = sub(plane.centroid, sensor?);
+    let r = norm(ray);
+    let cos = MAX_INCIDENCE_DEG.to_radians().cos();
+    (r > 0.0 && dot(plane.normal, ray).abs() < cos * r).then(|| {
+        format!(
+            "seen edge-on from the sensor ({:.0}° incidence)",
+            (dot(plane.normal, ray).abs() / r)
+                .clamp(0.0, 1.0)
+                .acos()
+                .to_degrees()
+        )
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::cloud::{Pose, Scan};
+
+    /// A 20 x 20 organised frame from a sensor at the origin looking down +z: a plane at
+    /// z = 1 whose right half (columns ≥ 10) is pushed back to z = 1.5.
+    fn frame() -> (Vec<[f64; 3]>, ScanStructure) {
+        let mut p = Vec::new();
+        let mut grid = Vec::new();
+        for r in 0..20u32 {
+            for c in 0..20u32 {
+                let z = if c >= 10 { 1.5 } else { 1.0 };
+                let (u, v) = ((c as f64 - 10.0) * 0.002, (r as f64 - 10.0) * 0.002);
+                p.push([u * z, v * z, z]);
+                grid.push([r, c]);
+            }
+        }
+        let s = ScanStructure {
+            scans: vec![Scan {
+                name: "frame".into(),
+                pose: Pose::default(),
+                grid_size: Some([20, 20]),
+            }],
+            scan: vec![0; p.len()],
+            grid,
+        };
+        (p, s)
+    }
+
+    #[test]
+    fn a_depth_step_marks_the_cells_beside_it_and_no_others() {
+        let (p, s) = frame();
+        let j = depth_jumps(&p, Some(&s));
+        for (i, &m) in j.iter().enumerate() {
+            let c = s.grid[i][1] as i64;
+            // The jump is between columns 9 and 10; JUMP_REACH = 3 columns either side.
+            let near = (6..=13).contains(&c);
+            assert_eq!(m, near, "column {c}");
+        }
+        // The same plane without the step has no jump.
+        let flat: Vec<[f64; 3]> = p
+            .iter()
+            .map(|q| {
+                let z = q[2];
+                [q[0] / z, q[1] / z, 1.0]
+            })
+            .collect();
+        assert!(depth_jumps(&flat, Some(&s)).iter().all(|&m| !m));
+        // No grid, no marks.
+        assert!(depth_jumps(&p, None).iter().all(|&m| !m));
+    }
+
+    #[test]
+    fn a_steep_real_face_is_no_jump_and_a_veil_is() {
+        let slope = MAX_INCIDENCE_DEG.to_radians().tan();
+        // Two rays 2 mrad apart at 1 m: the lateral step is 2 mm.
+        let (p, q) = ([0.0, 0.0, 1.0], [0.002, 0.0, 1.0]);
+        // A face at 70° incidence: the range changes by 2 mm · tan 70° = 5.5 mm.
+        let q70 = [0.002 * 1.0055, 0.0, 1.0055];
+        assert!(!is_jump(p, q70, [0.0; 3], slope));
+        // Along the ray (89°): 11 cm.
+        let q89 = [0.002 * 1.11, 0.0, 1.11];
+        assert!(is_jump(p, q89, [0.0; 3], slope));
+        assert!(!is_jump(p, q, [0.0; 3], slope));
+        // A sensor at a point tells nothing.
+        assert!(!is_jump(p, q, p, slope));
+    }
+
+    #[test]
+    fn the_sensor_of_a_run_is_its_scan_or_the_one_configured() {
+        let s = ScanStructure {
+            scans: vec![
+                Scan {
+                    pose: Pose {
+                        translation: [1.0, 0.0, 0.0],
+                        ..Pose::default()
+                    },
+                    ..Scan::default()
+                },
+                Scan {
+                    pose: Pose {
+                        translation: [0.0, 2.0, 0.0],
+                        ..Pose::default()
+                    },
+                    ..Scan::default()
+                },
+            ],
+            scan: vec![0, 1, 1, 0],
+            grid: Vec::new(),
+        };
+        assert_eq!(sensor_of(&[1, 2, 3], Some(&s), &[]), Some([0.0, 2.0, 0.0]));
+        assert_eq!(sensor_of(&[0, 3], Some(&s), &[]), Some([1.0, 0.0, 0.0]));
+        assert_eq!(sensor_of(&[0], None, &[[5.0; 3]]), Some([5.0; 3]));
+        assert_eq!(sensor_of(&[0], None, &[[5.0; 3], [1.0; 3]]), None);
+        assert_eq!(sensor_of(&[0], None, &[]), None);
+    }
+}
