@@ -422,6 +422,12 @@ pub const DEFAULT_TOLERANCE: f64 = 0.005;
 pub struct FrameResult {
     pub path: PathBuf,
     pub points: usize,
+    /// The frame came with its sensor grid (an organised PCD): depth jumps were looked for.
+    pub organised: bool,
+    /// Points on an occlusion boundary, and edge candidates left out as one
+    /// (`stages::occlusion`).
+    pub border_points: usize,
+    pub occlusion_runs: usize,
     pub found_edges: usize,
     pub found_corners: usize,
     pub score: FrameScore,
@@ -467,11 +473,18 @@ fn run_frame(
             non_finite: settings.input.non_finite,
         },
     )?;
-    let refs = reference_edges(&cloud, "label").map_err(|e| Error::BadCloud {
-        path: path.to_path_buf(),
-        what: e.to_string(),
-    })?;
+    // A frame without object labels (PCL's organised-edge test frame) has no reference: it
+    // is run and drawn, and scored on its border points only.
+    let refs = if cloud.attribute("label").is_some() {
+        reference_edges(&cloud, "label").map_err(|e| Error::BadCloud {
+            path: path.to_path_buf(),
+            what: e.to_string(),
+        })?
+    } else {
+        Vec::new()
+    };
     let points = cloud.len();
+    let organised = cloud.structure.as_ref().is_some_and(|s| !s.grid.is_empty());
     // The frames are organised RGB-D frames in their camera's coordinates: the sensor stood
     // at the origin (it tells convex box edges from concave base edges).
     let mut settings = settings.clone();
@@ -488,11 +501,19 @@ fn run_frame(
             &outcome.cloud,
             &refs,
             &outcome.edges,
+            &outcome.border,
         )?;
     }
     Ok(FrameResult {
         path: path.to_path_buf(),
         points,
+        organised,
+        border_points: outcome.border.iter().filter(|&&b| b).count(),
+        occlusion_runs: outcome
+            .left_out
+            .iter()
+            .filter(|l| l.reason == crate::left_out::Reason::Occlusion)
+            .count(),
         found_edges: outcome.edges.len(),
         found_corners: outcome.corners.len(),
         score: score_frame(&refs, &outcome.edges, tolerance),
@@ -500,9 +521,16 @@ fn run_frame(
 }
 
 /// Draws a frame as the sensor saw it (perspective from the origin, x right, y down): one
-/// point in 12 (a hashed choice: a regular step would draw moiré on the sensor's grid) in grey (objects darker than the table), the reference edges in green, the
-/// found edges in red over them.
-pub fn write_figure(path: &Path, cloud: &Cloud, refs: &[RefEdge], found: &[EdgeOut]) -> Result<()> {
+/// point in 12 (a hashed choice: a regular step would draw moiré on the sensor's grid) in
+/// grey (objects darker than the table), the points on an occlusion boundary (`border`) in
+/// orange, the reference edges in green, the found edges in red over them.
+pub fn write_figure(
+    path: &Path,
+    cloud: &Cloud,
+    refs: &[RefEdge],
+    found: &[EdgeOut],
+    border: &[bool],
+) -> Result<()> {
     use plotters::prelude::*;
     let err = |e: &dyn std::fmt::Display| {
         Error::io(
@@ -519,6 +547,18 @@ pub fn write_figure(path: &Path, cloud: &Cloud, refs: &[RefEdge], found: &[EdgeO
         .enumerate()
         .filter(|(i, p)| p[2] > 0.0 && (*i as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 60 < 2)
         .map(|(i, p)| (proj(*p), label.is_some_and(|a| a.values.get_f64(i) >= 20.0)))
+        .collect();
+    // Border points: one in 3, so the boundary reads as a line.
+    let rims: Vec<(f64, f64)> = cloud
+        .positions
+        .iter()
+        .enumerate()
+        .filter(|(i, p)| {
+            p[2] > 0.0
+                && border.get(*i).copied().unwrap_or(false)
+                && (*i as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 62 < 2
+        })
+        .map(|(_, p)| proj(*p))
         .collect();
     let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
     for ((u, v), _) in &pts {
@@ -549,6 +589,12 @@ pub fn write_figure(path: &Path, cloud: &Cloud, refs: &[RefEdge], found: &[EdgeO
             .draw_series(
                 pts.iter()
                     .map(|&(p, object)| Circle::new(p, 1, grey(object).filled())),
+            )
+            .map_err(|e| err(&e))?;
+        chart
+            .draw_series(
+                rims.iter()
+                    .map(|&p| Circle::new(p, 1, RGBColor(255, 140, 0).filled())),
             )
             .map_err(|e| err(&e))?;
         for r in refs {
@@ -589,6 +635,21 @@ pub fn table(results: &[FrameResult]) -> String {
             r.score.found_precision * 100.0,
             r.score.tolerance * 1e3,
         );
+        let _ = writeln!(
+            s,
+            "  {}: {} points on an occlusion boundary, {} edge candidates left out as one",
+            if r.organised {
+                "organised (depth jumps on its grid, sensor at its viewpoint)"
+            } else {
+                "unorganised (sensor at the origin)"
+            },
+            r.border_points,
+            r.occlusion_runs
+        );
+        if r.score.edges.is_empty() {
+            let _ = writeln!(s, "  no object labels: no reference edges");
+            continue;
+        }
         let _ = writeln!(
             s,
             "  {:<9} {:>7} {:>9} {:>8} {:>9}",
