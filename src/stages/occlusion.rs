@@ -34,6 +34,10 @@ pub const MAX_INCIDENCE_DEG: f64 = 80.0;
 /// candidates of an edge fit lie within a few spacings of the boundary.
 pub const JUMP_REACH: u32 = 3;
 
+/// Largest share of a run's or face's points from other scans than its main one for it to
+/// be judged from that scan's sensor (see [`sensor_of`]).
+pub const OTHER_SCANS: f64 = 0.2;
+
 /// Share of a run's points (or of an edge's slabs) on an occlusion boundary that makes the
 /// whole edge one.
 const BORDER_SHARE: f64 = 0.5;
@@ -122,9 +126,11 @@ pub fn is_jump(p: [f64; 3], q: [f64; 3], origin: [f64; 3], slope: f64) -> bool {
     (ra - rb).abs() > slope * lateral
 }
 
-/// Where the sensor stood for a run's points: the scan of most of them when the cloud
-/// records scans, else the one configured sensor; `None` when neither tells (several
-/// sensors and no scan per point).
+/// Where the sensor stood for a run's points: their scan when the cloud records scans, else
+/// the one configured sensor; `None` when neither tells (several sensors and no scan per
+/// point), or when more than [`OTHER_SCANS`] of the points come from other scans than the
+/// most common one: where scans overlap, what one scan could not see another did, and
+/// nothing there is the border of a single view.
 pub fn sensor_of(
     points: &[u32],
     structure: Option<&ScanStructure>,
@@ -139,7 +145,9 @@ pub fn sensor_of(
                 }
             }
             let best = (0..count.len()).max_by_key(|&k| (count[k], std::cmp::Reverse(k)))?;
-            (count[best] > 0).then(|| s.scans[best].pose.translation)
+            let total: usize = count.iter().sum();
+            (count[best] > 0 && (total - count[best]) as f64 <= OTHER_SCANS * total as f64)
+                .then(|| s.scans[best].pose.translation)
         }
         _ => (sensors.len() == 1).then(|| sensors[0]),
     }
@@ -324,8 +332,10 @@ mod tests {
             scan: vec![0, 1, 1, 0],
             grid: Vec::new(),
         };
-        assert_eq!(sensor_of(&[1, 2, 3], Some(&s), &[]), Some([0.0, 2.0, 0.0]));
+        assert_eq!(sensor_of(&[1, 2], Some(&s), &[]), Some([0.0, 2.0, 0.0]));
         assert_eq!(sensor_of(&[0, 3], Some(&s), &[]), Some([1.0, 0.0, 0.0]));
+        // Seen from both scans (a third from the other): no single view's border.
+        assert_eq!(sensor_of(&[1, 2, 3], Some(&s), &[]), None);
         assert_eq!(sensor_of(&[0], None, &[[5.0; 3]]), Some([5.0; 3]));
         assert_eq!(sensor_of(&[0], None, &[[5.0; 3], [1.0; 3]]), None);
         assert_eq!(sensor_of(&[0], None, &[]), None);
