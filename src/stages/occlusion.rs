@@ -69,25 +69,48 @@ pub fn depth_jumps(positions: &[[f64; 3]], structure: Option<&ScanStructure>) ->
                 cell[r as usize * cols + c as usize] = i as u32;
             }
         }
+        let at = |r: usize, c: usize, dr: isize, dc: isize| -> Option<usize> {
+            let (r2, c2) = (r as isize + dr, c as isize + dc);
+            (r2 >= 0 && c2 >= 0 && (r2 as usize) < rows && (c2 as usize) < cols)
+                .then(|| r2 as usize * cols + c2 as usize)
+                .filter(|&k| cell[k] != u32::MAX)
+        };
+        let jumps = |a: usize, b: usize| {
+            is_jump(
+                positions[cell[a] as usize],
+                positions[cell[b] as usize],
+                origin,
+                slope,
+            )
+        };
+        // A cell that jumps against three or four of its four neighbours is a speckle (one
+        // stray range), not the edge of a surface: its jumps mark nothing.
+        let mut speckle = vec![false; slots];
+        for r in 0..rows {
+            for c in 0..cols {
+                let k = r * cols + c;
+                if cell[k] == u32::MAX {
+                    continue;
+                }
+                let n = [(0, 1), (0, -1), (1, 0), (-1, 0)]
+                    .iter()
+                    .filter(|&&(dr, dc)| at(r, c, dr, dc).is_some_and(|j| jumps(k, j)))
+                    .count();
+                speckle[k] = n >= 3;
+            }
+        }
         let mut marked = vec![false; slots];
         for r in 0..rows {
             for c in 0..cols {
-                let i = cell[r * cols + c];
-                if i == u32::MAX {
+                let k = r * cols + c;
+                if cell[k] == u32::MAX || speckle[k] {
                     continue;
                 }
                 // Right, down and the two down diagonals: every neighbouring pair once.
                 for (dr, dc) in [(0isize, 1isize), (1, 0), (1, 1), (1, -1)] {
-                    let (r2, c2) = (r as isize + dr, c as isize + dc);
-                    if r2 < 0 || c2 < 0 || r2 as usize >= rows || c2 as usize >= cols {
-                        continue;
-                    }
-                    let j = cell[r2 as usize * cols + c2 as usize];
-                    if j != u32::MAX
-                        && is_jump(positions[i as usize], positions[j as usize], origin, slope)
-                    {
-                        marked[r * cols + c] = true;
-                        marked[r2 as usize * cols + c2 as usize] = true;
+                    if let Some(j) = at(r, c, dr, dc).filter(|&j| !speckle[j] && jumps(k, j)) {
+                        marked[k] = true;
+                        marked[j] = true;
                     }
                 }
             }
@@ -292,6 +315,16 @@ mod tests {
         assert!(depth_jumps(&flat, Some(&s)).iter().all(|&m| !m));
         // No grid, no marks.
         assert!(depth_jumps(&p, None).iter().all(|&m| !m));
+    }
+
+    #[test]
+    fn a_stray_range_is_a_speckle_and_marks_nothing() {
+        let (p, s) = frame();
+        // The flat frame (no step) with one cell pushed 20 cm back.
+        let mut flat: Vec<[f64; 3]> = p.iter().map(|q| [q[0] / q[2], q[1] / q[2], 1.0]).collect();
+        let k = 5 * 20 + 5;
+        flat[k] = flat[k].map(|x| x * 1.2);
+        assert!(depth_jumps(&flat, Some(&s)).iter().all(|&m| !m));
     }
 
     #[test]
