@@ -115,6 +115,7 @@ pub fn depth_jumps(positions: &[[f64; 3]], structure: Option<&ScanStructure>) ->
                 }
             }
         }
+        drop_short_contours(&mut marked, rows, cols);
         let reach = JUMP_REACH as usize;
         for r in 0..rows {
             for c in 0..cols {
@@ -133,6 +134,45 @@ pub fn depth_jumps(positions: &[[f64; 3]], structure: Option<&ScanStructure>) ->
         }
     }
     jump
+}
+
+/// A depth jump marks cells along a contour at least this many cells long (8-connected): a
+/// few jumping cells in the middle of a surface are range noise (a depth camera's quantised
+/// ranges on a far, steep table), not where a surface ends.
+pub const MIN_CONTOUR: usize = 12;
+
+/// Unmarks the 8-connected groups of marked cells smaller than [`MIN_CONTOUR`].
+fn drop_short_contours(marked: &mut [bool], rows: usize, cols: usize) {
+    let mut seen = vec![false; marked.len()];
+    let mut group = Vec::new();
+    for start in 0..marked.len() {
+        if !marked[start] || seen[start] {
+            continue;
+        }
+        group.clear();
+        group.push(start);
+        seen[start] = true;
+        let mut next = 0;
+        while next < group.len() {
+            let k = group[next];
+            next += 1;
+            let (r, c) = (k / cols, k % cols);
+            for r2 in r.saturating_sub(1)..(r + 2).min(rows) {
+                for c2 in c.saturating_sub(1)..(c + 2).min(cols) {
+                    let j = r2 * cols + c2;
+                    if marked[j] && !seen[j] {
+                        seen[j] = true;
+                        group.push(j);
+                    }
+                }
+            }
+        }
+        if group.len() < MIN_CONTOUR {
+            for &k in &group {
+                marked[k] = false;
+            }
+        }
+    }
 }
 
 /// True when the ranges of `p` and `q` from `origin` differ by more than `slope` times the
@@ -325,6 +365,31 @@ mod tests {
         let k = 5 * 20 + 5;
         flat[k] = flat[k].map(|x| x * 1.2);
         assert!(depth_jumps(&flat, Some(&s)).iter().all(|&m| !m));
+    }
+
+    #[test]
+    fn short_contours_are_dropped_long_ones_kept() {
+        // A 5 x 6 grid: a 6-cell line (row 1) and a 2-cell blob (row 4).
+        let mut m = vec![false; 30];
+        for c in 0..6 {
+            m[6 + c] = true;
+        }
+        m[4 * 6] = true;
+        m[4 * 6 + 1] = true;
+        let mut short = m.clone();
+        drop_short_contours(&mut short, 5, 6);
+        assert!(
+            short.iter().all(|&x| !x),
+            "both shorter than MIN_CONTOUR = {MIN_CONTOUR}"
+        );
+        // A 20-cell diagonal stays.
+        let mut d = vec![false; 400];
+        for i in 0..20 {
+            d[i * 20 + i] = true;
+        }
+        let before = d.clone();
+        drop_short_contours(&mut d, 20, 20);
+        assert_eq!(d, before);
     }
 
     #[test]
