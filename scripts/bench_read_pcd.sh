@@ -15,19 +15,10 @@ cd "$(dirname "$0")/.."
 POINTS=${1:-10000000}
 RUNS=${2:-3}
 
-as_root() { if [ "$(id -u)" -eq 0 ]; then "$@"; else sudo "$@"; fi; }
-if ! pkg-config --exists pcl_io 2>/dev/null; then
-    echo "installing PCL 1.13 (Debian package libpcl-dev)..." >&2
-    as_root apt-get update -qq
-    as_root env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends libpcl-dev pkg-config >&2
-fi
-mkdir -p target/pcl
+# shellcheck source=scripts/pcl_build.sh
+. scripts/pcl_build.sh
 ref=target/pcl/pcl_read_pcd
-if [ ! -x "$ref" ] || [ scripts/pcl_read_pcd.cpp -nt "$ref" ]; then
-    echo "building $ref..." >&2
-    # shellcheck disable=SC2046
-    g++ -O2 -std=c++17 scripts/pcl_read_pcd.cpp -o "$ref" $(pkg-config --cflags --libs pcl_io pcl_common)
-fi
+pcl_build scripts/pcl_read_pcd.cpp "$ref" pcl_io pcl_common
 cargo build --release --locked -q --example pcd_read
 se=target/release/examples/pcd_read
 

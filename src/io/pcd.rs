@@ -1034,7 +1034,9 @@ fn read_binary_chunked(path: &Path) -> Result<Option<(Header, Decoded)>> {
     }
     file.seek(SeekFrom::Start(header.data_start as u64))
         .map_err(|e| Error::io(path, "cannot read", e))?;
-    let per_chunk = (CHUNK_BYTES / ps).max(1);
+    // Never more slots than the file has: a header of huge fields and POINTS 0 must not
+    // allocate a chunk.
+    let per_chunk = (CHUNK_BYTES / ps).max(1).min(header.points);
     let mut out = Decoded {
         positions: Vec::with_capacity(header.points),
         ..Default::default()
@@ -1282,23 +1284,17 @@ fn header_text(h: &Header) -> String {
     let join = |f: &dyn Fn(&Field) -> String| -> String {
         h.fields.iter().map(f).collect::<Vec<_>>().join(" ")
     };
-    let v = h.viewpoint;
+    let viewpoint: Vec<String> = h.viewpoint.iter().map(f64::to_string).collect();
     format!(
         "# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\nFIELDS {}\nSIZE {}\nTYPE \
-         {}\nCOUNT {}\nWIDTH {}\nHEIGHT {}\nVIEWPOINT {} {} {} {} {} {} {}\nPOINTS {}\nDATA {}\n",
+         {}\nCOUNT {}\nWIDTH {}\nHEIGHT {}\nVIEWPOINT {}\nPOINTS {}\nDATA {}\n",
         join(&|f| f.name.clone()),
         join(&|f| f.size.to_string()),
         join(&|f| f.kind.letter().to_string()),
         join(&|f| f.count.to_string()),
         h.width,
         h.height,
-        v[0],
-        v[1],
-        v[2],
-        v[3],
-        v[4],
-        v[5],
-        v[6],
+        viewpoint.join(" "),
         h.points,
         h.encoding.name()
     )

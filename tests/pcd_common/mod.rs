@@ -224,22 +224,16 @@ pub fn header_text(pcd: &Pcd, points: usize) -> String {
     let list = |f: &dyn Fn(&Field) -> String| -> String {
         pcd.fields.iter().map(f).collect::<Vec<_>>().join(" ")
     };
-    let v = pcd.viewpoint;
+    let viewpoint: Vec<String> = pcd.viewpoint.iter().map(|v| v.to_string()).collect();
     format!(
-        "# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\nFIELDS {}\nSIZE {}\nTYPE {}\nCOUNT {}\nWIDTH {}\nHEIGHT {}\nVIEWPOINT {} {} {} {} {} {} {}\nPOINTS {}\nDATA {}\n",
+        "# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\nFIELDS {}\nSIZE {}\nTYPE {}\nCOUNT {}\nWIDTH {}\nHEIGHT {}\nVIEWPOINT {}\nPOINTS {}\nDATA {}\n",
         list(&|f| f.name.clone()),
         list(&|f| f.size.to_string()),
         list(&|f| f.ty.to_string()),
         list(&|f| f.count.to_string()),
         pcd.width,
         pcd.height,
-        v[0],
-        v[1],
-        v[2],
-        v[3],
-        v[4],
-        v[5],
-        v[6],
+        viewpoint.join(" "),
         points,
         pcd.data
     )
@@ -286,19 +280,11 @@ pub fn body(pcd: &Pcd) -> Vec<u8> {
                             }
                             ('F', 4) => {
                                 let v = f32::from_le_bytes(b.try_into().unwrap());
-                                if v.is_nan() {
-                                    "nan".into()
-                                } else {
-                                    format!("{v:e}")
-                                }
+                                float_text(v.is_nan(), format!("{v:e}"))
                             }
                             ('F', 8) => {
                                 let v = f64::from_le_bytes(b.try_into().unwrap());
-                                if v.is_nan() {
-                                    "nan".into()
-                                } else {
-                                    format!("{v:e}")
-                                }
+                                float_text(v.is_nan(), format!("{v:e}"))
                             }
                             ('I', 1) => (b[0] as i8).to_string(),
                             ('U', 1) => b[0].to_string(),
@@ -317,6 +303,11 @@ pub fn body(pcd: &Pcd) -> Vec<u8> {
         }
         other => panic!("DATA {other}"),
     }
+}
+
+/// A float as PCL writes it: `nan`, else the given text.
+fn float_text(nan: bool, text: String) -> String {
+    if nan { "nan".into() } else { text }
 }
 
 /// The whole file.
