@@ -181,3 +181,22 @@ fn the_real_frame_reads_as_its_ply_copy() {
             .all(|w| (w[0][0], w[0][1]) < (w[1][0], w[1][1]))
     );
 }
+
+#[test]
+fn a_truncated_binary_body_is_named_on_the_chunked_path_too() {
+    // `io::read` decodes a binary body chunk by chunk (a run with a PCD output reads it
+    // whole): both check the body's length against the header first.
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("cut.pcd");
+    let b = bytes(&every_field_frame());
+    std::fs::write(&p, &b[..b.len() - 1]).unwrap();
+    let e = read(&p).unwrap_err().to_string();
+    assert!(
+        e.contains("cut.pcd: byte ")
+            && e.contains(
+                "the file is truncated: the header declares 12 points of 49 bytes (588 bytes), \
+                 the file holds 587 bytes after the header"
+            ),
+        "{e}"
+    );
+}
