@@ -13,20 +13,10 @@ POINTS=${1:-1000000}
 RUNS=${2:-5}
 THREADS=${3:-2}
 
-as_root() { if [ "$(id -u)" -eq 0 ]; then "$@"; else sudo "$@"; fi; }
-if ! pkg-config --exists pcl_features 2>/dev/null; then
-    echo "installing PCL 1.13 (Debian package libpcl-dev)..." >&2
-    as_root apt-get update -qq
-    as_root env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends libpcl-dev pkg-config >&2
-fi
-mkdir -p target/pcl
+# shellcheck source=scripts/pcl_build.sh
+. scripts/pcl_build.sh
 ref=target/pcl/pcl_reference
-if [ ! -x "$ref" ] || [ scripts/pcl_reference.cpp -nt "$ref" ]; then
-    echo "building $ref..." >&2
-    # shellcheck disable=SC2046
-    g++ -O2 -fopenmp -std=c++17 scripts/pcl_reference.cpp -o "$ref" \
-        $(pkg-config --cflags --libs pcl_io pcl_features pcl_search pcl_kdtree pcl_common)
-fi
+pcl_build scripts/pcl_reference.cpp "$ref" pcl_io pcl_features pcl_search pcl_kdtree pcl_common
 cargo build --release --locked -q
 se=target/release/sharpedge
 

@@ -194,7 +194,7 @@ pub struct OutputSettings {
     #[serde(serialize_with = "ser_encoding")]
     pub encoding: PlyEncoding,
     pub precision: Precision,
-    /// File format of the rectified cloud (`auto`: LAS/LAZ as the input, PLY otherwise).
+    /// File format of the rectified cloud (`auto`: LAS/LAZ or PCD as the input, PLY otherwise).
     pub format: CloudFormat,
     /// Give edge points the class `edge_class` in a LAS/LAZ output.
     pub classify_edges: bool,
@@ -559,6 +559,7 @@ impl Checker<'_> {
                     ("ply", CloudFormat::Ply),
                     ("las", CloudFormat::Las),
                     ("laz", CloudFormat::Laz),
+                    ("pcd", CloudFormat::Pcd),
                 ],
             )?,
             classify_edges: raw
@@ -988,7 +989,7 @@ mod tests {
         let e = err("[output]\n\nformat = \"copc\"\n");
         assert_eq!(
             e,
-            "pipeline.toml:3: output.format: must be one of \"auto\", \"ply\", \"las\", \"laz\", got \"copc\""
+            "pipeline.toml:3: output.format: must be one of \"auto\", \"ply\", \"las\", \"laz\", \"pcd\", got \"copc\""
         );
         let e = err("[output]\nedge_class = 256\n");
         assert!(

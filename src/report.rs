@@ -83,11 +83,12 @@ fn at_destination(e: Error, staging: &Path, to: &Path) -> Error {
     }
 }
 
-/// Writes the four output files; `lidar` is the LAS/LAZ input (with its point records when
-/// the rectified cloud is LAS/LAZ). Returns their paths.
+/// Writes the four output files; `original` is what the input's own format needs: the
+/// LAS/LAZ input (with its point records when the rectified cloud is LAS/LAZ) or the PCD
+/// input's records for a PCD output. Returns their paths.
 pub fn write_all(
     outcome: &Outcome,
-    lidar: Option<&io::Lidar>,
+    original: Option<&io::Original>,
     settings: &Settings,
     dir: &Path,
     timings: &[Timing],
@@ -120,8 +121,21 @@ pub fn write_all(
         let st = staging_dir.clone();
         move |e| at_destination(e, &st, &to)
     };
-    match (format.is_lidar(), lidar) {
-        (true, Some(l)) => crate::lidar_out::write_rectified(
+    let lidar = original.and_then(io::Original::lidar);
+    let pcd = match original {
+        Some(io::Original::Pcd(p)) => Some(p),
+        _ => None,
+    };
+    match (format, lidar, pcd) {
+        (io::CloudFormat::Pcd, _, Some(p)) => {
+            io::write_pcd(&staged[0], p, &outcome.rectified, &outcome.moved)
+        }
+        (io::CloudFormat::Pcd, _, None) => Err(Error::BadOutput {
+            path: dir.join(&rectified_name),
+            what: "a PCD output is written from the PCD input's records, which were not given"
+                .into(),
+        }),
+        (f, Some(l), _) if f.is_lidar() => crate::lidar_out::write_rectified(
             &staged[0],
             outcome,
             l,
@@ -133,13 +147,13 @@ pub fn write_all(
                     .then_some(settings.output.edge_class),
             },
         ),
-        (true, None) => Err(Error::BadOutput {
+        (f, None, _) if f.is_lidar() => Err(Error::BadOutput {
             path: dir.join(&rectified_name),
             what: "a LAS/LAZ output is written from the LAS/LAZ input's records, which were \
                    not given"
                 .into(),
         }),
-        (false, _) => write_rectified(&staged[0], outcome, &opts),
+        _ => write_rectified(&staged[0], outcome, &opts),
     }
     .map_err(named(0))?;
     write_features(&staged[1], outcome, &opts).map_err(named(1))?;

@@ -24,7 +24,7 @@ fn main() {
             std::process::exit(2);
         }
     };
-    for t in ["ply", "las", "xyz", "mesh", "config"] {
+    for t in ["ply", "las", "xyz", "mesh", "config", "pcd"] {
         std::fs::create_dir_all(out.join(t)).expect("cannot create the corpus folders");
     }
     ply_seeds(&root, &out.join("ply"));
@@ -32,6 +32,101 @@ fn main() {
     xyz_seeds(&out.join("xyz"));
     mesh_seeds(&out.join("mesh"));
     config_seeds(&root, &out.join("config"));
+    pcd_seeds(&out.join("pcd"));
+}
+
+/// A PCD header for `fields` (name, TYPE, SIZE, COUNT) and a WIDTH x HEIGHT frame.
+fn pcd_header(fields: &[(&str, char, usize, usize)], w: usize, h: usize, data: &str) -> String {
+    let list = |f: &dyn Fn(&(&str, char, usize, usize)) -> String| {
+        fields.iter().map(f).collect::<Vec<_>>().join(" ")
+    };
+    format!(
+        "# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\nFIELDS {}\nSIZE {}\nTYPE {}\n\
+         COUNT {}\nWIDTH {w}\nHEIGHT {h}\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS {}\nDATA {data}\n",
+        list(&|f| f.0.to_string()),
+        list(&|f| f.2.to_string()),
+        list(&|f| f.1.to_string()),
+        list(&|f| f.3.to_string()),
+        w * h
+    )
+}
+
+/// LZF data of literal runs only (valid LZF, what liblzf stores for data it cannot shrink).
+fn lzf_literals(data: &[u8]) -> Vec<u8> {
+    let mut out = Vec::new();
+    for run in data.chunks(32) {
+        out.push((run.len() - 1) as u8);
+        out.extend_from_slice(run);
+    }
+    out
+}
+
+fn pcd_seeds(dir: &Path) {
+    // An organised 3 x 2 frame, `label x y z rgba`, one NaN slot, in the three encodings.
+    let fields = [
+        ("label", 'U', 4, 1),
+        ("x", 'F', 4, 1),
+        ("y", 'F', 4, 1),
+        ("z", 'F', 4, 1),
+        ("rgba", 'U', 4, 1),
+    ];
+    let mut records = Vec::new();
+    let mut ascii = String::new();
+    for i in 0..6u32 {
+        let p = if i == 4 {
+            [f32::NAN; 3]
+        } else {
+            [i as f32 * 0.5, 1.0 - i as f32 * 0.25, 2.0]
+        };
+        let rgba = 0xff00_0000 | i * 0x0010_2030;
+        records.extend_from_slice(&(i % 3).to_le_bytes());
+        for v in p {
+            records.extend_from_slice(&v.to_le_bytes());
+        }
+        records.extend_from_slice(&rgba.to_le_bytes());
+        let t = |v: f32| if v.is_nan() { "nan".to_string() } else { v.to_string() };
+        ascii.push_str(&format!("{} {} {} {} {rgba}\n", i % 3, t(p[0]), t(p[1]), t(p[2])));
+    }
+    let mut b = pcd_header(&fields, 3, 2, "binary").into_bytes();
+    b.extend_from_slice(&records);
+    write(&dir.join("frame-binary.pcd"), &b);
+    let mut a = pcd_header(&fields, 3, 2, "ascii").into_bytes();
+    a.extend_from_slice(ascii.as_bytes());
+    write(&dir.join("frame-ascii.pcd"), &a);
+    let mut blocks = Vec::new();
+    for k in 0..5 {
+        for i in 0..6 {
+            blocks.extend_from_slice(&records[20 * i + 4 * k..20 * i + 4 * k + 4]);
+        }
+    }
+    let packed = lzf_literals(&blocks);
+    let mut c = pcd_header(&fields, 3, 2, "binary_compressed").into_bytes();
+    c.extend_from_slice(&(packed.len() as u32).to_le_bytes());
+    c.extend_from_slice(&(blocks.len() as u32).to_le_bytes());
+    c.extend_from_slice(&packed);
+    write(&dir.join("frame-compressed.pcd"), &c);
+    // Every type, COUNT > 1 and padding, unorganised, ascii; and an old v0.5 header.
+    let fields = [
+        ("x", 'F', 8, 1),
+        ("y", 'F', 8, 1),
+        ("z", 'F', 8, 1),
+        ("_", 'U', 1, 2),
+        ("normal", 'F', 4, 3),
+        ("a", 'I', 1, 1),
+        ("b", 'I', 2, 1),
+        ("c", 'I', 4, 1),
+        ("d", 'U', 1, 1),
+        ("e", 'U', 2, 1),
+        ("rgb", 'F', 4, 1),
+    ];
+    let mut t = pcd_header(&fields, 2, 1, "ascii");
+    t.push_str("1e-3 2.5 -3 0 0 0 0.6 0.8 -5 -300 70000 200 60000 4278190080\n");
+    t.push_str("4 5 6 0 0 1 0 0 5 300 -70000 0 0 1.5e-39\n");
+    write(&dir.join("types-ascii.pcd"), t.as_bytes());
+    write(
+        &dir.join("v05.pcd"),
+        b"VERSION .5\nFIELDS x y z\nSIZE 4 4 4\nPOINTS 3\nDATA ascii\n1 2 3\n4 5 6\n7 8 9\n",
+    );
 }
 
 fn write(path: &Path, bytes: &[u8]) {

@@ -374,6 +374,7 @@ fn read_lidar_on(path: &Path, keep_records: bool) -> Result<(Loaded, Lidar)> {
         },
         properties,
         other_elements: Vec::new(),
+        details: Vec::new(),
     };
     Ok((loaded, lidar))
 }

@@ -2,7 +2,7 @@
 //! the rest of the library sees only `Cloud`.
 //!
 //! Inputs: a path whose extension names the format (`.ply`, `.las`, `.laz` including COPC
-//! `.copc.laz`, and the text formats `.xyz`, `.txt`, `.pts`, `.pwn`). Outputs: a [`Cloud`] with
+//! `.copc.laz`, PCL's `.pcd`, and the text formats `.xyz`, `.txt`, `.pts`, `.pwn`). Outputs: a [`Cloud`] with
 //! f64 positions in file order, every per-point property as a typed [`Attribute`], and a
 //! [`Source`](crate::Source) saying where it came from and whether its coordinates need double
 //! precision. Writers produce PLY (binary little endian or ascii, float or double
@@ -12,7 +12,9 @@
 //!
 //! A LAS/LAZ input read for a LAS/LAZ output ([`read_for_output`]) also hands back a
 //! [`Lidar`]: its header, EVLRs and raw point records, which [`write_las`] writes back with
-//! the rectified positions and sharpedge's fields as extra bytes. Edges and corners are also
+//! the rectified positions and sharpedge's fields as extra bytes; a PCD input read for a PCD
+//! output hands back a [`PcdFile`] the same way, which [`write_pcd`] writes back. Both are an
+//! [`Original`]. Edges and corners are also
 //! written as GeoJSON ([`write_geojson`]) in the input's [`Crs`].
 //!
 //! Points with NaN or infinite coordinates are rejected (error naming the first bad point) or
@@ -26,6 +28,7 @@ mod las;
 mod las_check;
 mod las_write;
 pub mod output_set;
+mod pcd;
 mod ply;
 mod xyz;
 
@@ -41,18 +44,20 @@ pub use self::las::Lidar;
 pub use crs::Crs;
 pub use geojson::{GeoFeature, Geometry, NO_CRS, write_geojson};
 pub use las_write::{ExtraField, LasWriteOptions, check_edge_class, max_class, write_las};
+pub use pcd::{PcdEncoding, PcdFile, write_pcd};
 pub use ply::{PlyEncoding, PlyWriteOptions, Precision, write_ply};
 
 /// File format of the rectified cloud (`output.format`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum CloudFormat {
-    /// LAS in → LAS out, LAZ (and COPC) in → LAZ out, PLY otherwise.
+    /// LAS in → LAS out, LAZ (and COPC) in → LAZ out, PCD in → PCD out, PLY otherwise.
     #[default]
     Auto,
     Ply,
     Las,
     Laz,
+    Pcd,
 }
 
 impl CloudFormat {
@@ -61,6 +66,7 @@ impl CloudFormat {
     /// records are what is written back).
     pub fn resolve(self, input: &Path) -> Result<CloudFormat> {
         let is_las = format_of(input).ok() == Some(Format::Las);
+        let is_pcd = format_of(input).ok() == Some(Format::Pcd);
         let is_laz = is_las
             && input
                 .extension()
@@ -68,7 +74,17 @@ impl CloudFormat {
         match self {
             CloudFormat::Auto if is_laz => Ok(CloudFormat::Laz),
             CloudFormat::Auto if is_las => Ok(CloudFormat::Las),
+            CloudFormat::Auto if is_pcd => Ok(CloudFormat::Pcd),
             CloudFormat::Auto => Ok(CloudFormat::Ply),
+            CloudFormat::Pcd if !is_pcd => Err(Error::Usage {
+                option: "output.format (--format)".into(),
+                message: format!(
+                    "{}: a PCD output is written from a PCD input (its fields, organisation \
+                     and NaN slots are written back); this input is no PCD file. Use \"ply\" \
+                     or \"auto\"",
+                    input.display()
+                ),
+            }),
             CloudFormat::Las | CloudFormat::Laz if !is_las => Err(Error::Usage {
                 option: "output.format (--format)".into(),
                 message: format!(
@@ -82,11 +98,13 @@ impl CloudFormat {
         }
     }
 
-    /// The extension of the rectified cloud (`ply`, `las`, `laz`; `Auto` unresolved: `ply`).
+    /// The extension of the rectified cloud (`ply`, `las`, `laz`, `pcd`; `Auto` unresolved:
+    /// `ply`).
     pub fn extension(self) -> &'static str {
         match self {
             CloudFormat::Las => "las",
             CloudFormat::Laz => "laz",
+            CloudFormat::Pcd => "pcd",
             CloudFormat::Ply | CloudFormat::Auto => "ply",
         }
     }
@@ -115,11 +133,11 @@ pub struct ReadOptions {
 
 /// The extensions [`read`] accepts, for error messages.
 const READ_EXTENSIONS: &str =
-    "sharpedge reads .ply, .las, .laz (also .copc.laz), and text .xyz, .txt, .pts, .pwn";
+    "sharpedge reads .ply, .las, .laz (also .copc.laz), .pcd, and text .xyz, .txt, .pts, .pwn";
 
 /// The same for a triangle mesh, which is no scan but can be made into one.
-const READ_EXTENSIONS_MESH: &str = "sharpedge reads .ply, .las, .laz (also .copc.laz), and \
-    text .xyz, .txt, .pts, .pwn; a triangle mesh is sampled into a scan with `sharpedge synth \
+const READ_EXTENSIONS_MESH: &str = "sharpedge reads .ply, .las, .laz (also .copc.laz), .pcd, \
+    and text .xyz, .txt, .pts, .pwn; a triangle mesh is sampled into a scan with `sharpedge synth \
     --mesh FILE --out scan.ply`";
 
 /// Point counts from which readers show a progress bar (small files would only flicker).
@@ -129,6 +147,7 @@ pub(crate) const PROGRESS_MIN_POINTS: u64 = 1 << 20;
 enum Format {
     Ply,
     Las,
+    Pcd,
     Xyz,
 }
 
@@ -142,6 +161,7 @@ fn format_of(path: &Path) -> Result<Format> {
         "ply" => Ok(Format::Ply),
         // The las crate tells LAS from LAZ (and COPC, which is LAZ 1.4) by the header.
         "las" | "laz" => Ok(Format::Las),
+        "pcd" => Ok(Format::Pcd),
         "xyz" | "txt" | "pts" | "pwn" => Ok(Format::Xyz),
         _ => Err(Error::UnknownFormat {
             path: path.to_path_buf(),
@@ -163,6 +183,9 @@ pub(crate) struct Loaded {
     pub properties: Vec<PropertyInfo>,
     /// Elements of the file that are not points (PLY faces, edges, ...), with their counts.
     pub other_elements: Vec<ElementInfo>,
+    /// Format-specific facts for `info` (label, value): a PCD's encoding, organisation and
+    /// viewpoint.
+    pub details: Vec<(String, String)>,
 }
 
 fn load(path: &Path) -> Result<Loaded> {
@@ -170,6 +193,7 @@ fn load(path: &Path) -> Result<Loaded> {
     let loaded = match format {
         Format::Ply => ply::read(path, ply::VertexPath::Fast)?,
         Format::Las => las::read(path)?,
+        Format::Pcd => pcd::read(path)?,
         Format::Xyz => xyz::read(path)?,
     };
     debug_assert!(
@@ -196,27 +220,63 @@ pub fn read(path: &Path, opts: &ReadOptions) -> Result<Cloud> {
     Ok(cloud)
 }
 
+/// What a writer of the same format needs of the input beyond the cloud.
+// One value per run: boxing the larger variant would save nothing worth an indirection.
+#[allow(clippy::large_enum_variant)]
+pub enum Original {
+    /// A LAS/LAZ input: header, EVLRs, CRS, and for a LAS/LAZ output the raw point records.
+    Lidar(Lidar),
+    /// A PCD input read for a PCD output: header and every slot's record.
+    Pcd(PcdFile),
+}
+
+impl Original {
+    /// The LAS/LAZ input, if this is one.
+    pub fn lidar(&self) -> Option<&Lidar> {
+        match self {
+            Original::Lidar(l) => Some(l),
+            _ => None,
+        }
+    }
+}
+
 /// Reads a cloud for a run whose rectified cloud is written as `output` (resolved). A LAS/LAZ
 /// input also gives its [`Lidar`] (header, EVLRs, CRS); for a LAS/LAZ output it holds the raw
 /// point records, and the cloud then carries no attribute columns (the records hold them: one
-/// copy of the points in memory, not two).
+/// copy of the points in memory, not two). A PCD input read for a PCD output gives its
+/// [`PcdFile`] the same way.
 pub fn read_for_output(
     path: &Path,
     opts: &ReadOptions,
     output: CloudFormat,
-) -> Result<(Cloud, Option<Lidar>)> {
-    if format_of(path)? != Format::Las {
+) -> Result<(Cloud, Option<Original>)> {
+    let format = format_of(path)?;
+    if !(format == Format::Las || (format == Format::Pcd && output == CloudFormat::Pcd)) {
         return Ok((read(path, opts)?, None));
     }
     let _span = tracing::debug_span!("read", path = %path.display()).entered();
-    let (loaded, mut lidar) = las::read_lidar(path, output.is_lidar())?;
-    let mut cloud = loaded.cloud;
+    let (mut cloud, mut original) = if format == Format::Las {
+        let (loaded, lidar) = las::read_lidar(path, output.is_lidar())?;
+        (loaded.cloud, Original::Lidar(lidar))
+    } else {
+        let (loaded, pcd) = pcd::read_file(path, true)?;
+        let Some(pcd) = pcd else {
+            return Err(Error::BadOutput {
+                path: path.to_path_buf(),
+                what: "the PCD reader kept no records for the PCD output".into(),
+            });
+        };
+        (loaded.cloud, Original::Pcd(pcd))
+    };
     let keep: Vec<bool> = cloud.positions.iter().map(is_finite_point).collect();
     apply_non_finite(&mut cloud, opts.non_finite)?;
     if cloud.len() != keep.len() {
-        lidar.retain_mask(&keep);
+        match &mut original {
+            Original::Lidar(l) => l.retain_mask(&keep),
+            Original::Pcd(p) => p.retain_mask(&keep),
+        }
     }
-    Ok((cloud, Some(lidar)))
+    Ok((cloud, Some(original)))
 }
 
 fn is_finite_point(p: &[f64; 3]) -> bool {
@@ -326,6 +386,9 @@ pub struct FileInfo {
     pub properties: Vec<PropertyInfo>,
     /// Elements that are not points (faces, edges, ...): skipped by the reader.
     pub other_elements: Vec<ElementInfo>,
+    /// Format-specific facts (label, value): a PCD's encoding, organisation (WIDTH x HEIGHT,
+    /// NaN slots) and viewpoint.
+    pub details: Vec<(String, String)>,
     /// Bounding box of the finite points; `None` when there are none.
     pub bbox: Option<BBox>,
     /// True when the coordinates need double precision (outputs are then written as double).
@@ -339,6 +402,9 @@ impl std::fmt::Display for FileInfo {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         writeln!(f, "file:        {}", self.path.display())?;
         writeln!(f, "format:      {}", self.format)?;
+        for (label, value) in &self.details {
+            writeln!(f, "{:<12} {value}", format!("{label}:"))?;
+        }
         write!(f, "points:      {}", self.points)?;
         if self.non_finite > 0 {
             write!(f, " ({} with NaN or infinite coordinates)", self.non_finite)?;
@@ -423,6 +489,7 @@ pub fn describe(path: &Path) -> Result<FileInfo> {
         non_finite,
         properties: loaded.properties,
         other_elements: loaded.other_elements,
+        details: loaded.details,
         bbox,
         double_precision: cloud.source.double_precision,
         duplicates: finite.len() - distinct.len(),

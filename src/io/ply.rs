@@ -490,6 +490,7 @@ pub(crate) fn read(path: &Path, path_choice: VertexPath) -> Result<Loaded> {
         },
         properties,
         other_elements,
+        details: Vec::new(),
     })
 }
 

@@ -342,6 +342,7 @@ pub(crate) fn read(path: &Path) -> Result<Loaded> {
         },
         properties,
         other_elements: Vec::new(),
+        details: Vec::new(),
     })
 }
 
