@@ -348,7 +348,7 @@ pub fn process(cloud: Cloud, settings: &Settings, clock: &mut impl LapClock) -> 
     );
     clock.lap("rectify");
     let (convexity, plane_convexity) =
-        convexity::convexity(&surface, &fits, &new_edges, &settings.input.sensors);
+        convexity::convexity(&surface, &fits, &new_edges, &sensors(&cloud, settings));
     clock.lap("convexity");
     let (mut edges, mut corners) =
         describe(&fits, &geometry, &corner_list, &edge_of_run, &convexity);
@@ -381,6 +381,19 @@ pub fn process(cloud: Cloud, settings: &Settings, clock: &mut impl LapClock) -> 
         border: distinct.expand(border),
         left_out,
     })
+}
+
+/// The sensor positions: `input.sensors` when given, else the scans' origins the file
+/// records (an organised PCD's VIEWPOINT, E57 scan poses).
+fn sensors(cloud: &Cloud, settings: &Settings) -> Vec<[f64; 3]> {
+    match &cloud.structure {
+        Some(s) if settings.input.sensors.is_empty() => {
+            let mut v: Vec<[f64; 3]> = s.scans.iter().map(|sc| sc.pose.translation).collect();
+            v.dedup();
+            v
+        }
+        _ => settings.input.sensors.clone(),
+    }
 }
 
 /// What tells occlusion boundaries in one cloud (`stages::occlusion`), by distinct position.
