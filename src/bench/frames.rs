@@ -623,18 +623,30 @@ pub fn table(results: &[FrameResult]) -> String {
     use std::fmt::Write;
     let mut s = String::new();
     for r in results {
-        let _ = writeln!(
-            s,
-            "{}: {} points, {} edges and {} corners found; {:.0} mm of found edge, {:.0} % of it \
-             within {:.0} mm of a reference edge",
-            r.path.display(),
-            r.points,
-            r.found_edges,
-            r.found_corners,
-            r.score.found_length * 1e3,
-            r.score.found_precision * 100.0,
-            r.score.tolerance * 1e3,
-        );
+        if r.score.edges.is_empty() {
+            let _ = writeln!(
+                s,
+                "{}: {} points, {} edges and {} corners found; {:.0} mm of found edge",
+                r.path.display(),
+                r.points,
+                r.found_edges,
+                r.found_corners,
+                r.score.found_length * 1e3,
+            );
+        } else {
+            let _ = writeln!(
+                s,
+                "{}: {} points, {} edges and {} corners found; {:.0} mm of found edge, {:.0} % of it \
+                 within {:.0} mm of a reference edge",
+                r.path.display(),
+                r.points,
+                r.found_edges,
+                r.found_corners,
+                r.score.found_length * 1e3,
+                r.score.found_precision * 100.0,
+                r.score.tolerance * 1e3,
+            );
+        }
         let _ = writeln!(
             s,
             "  {}: {} points on an occlusion boundary, {} edge candidates left out as one",
