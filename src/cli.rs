@@ -49,8 +49,8 @@ pub struct RunArgs {
     #[arg(long)]
     pub threads: Option<usize>,
     /// File format of the rectified cloud; overrides `output.format` of the config (auto:
-    /// LAS/LAZ as the input, COPC as LAZ, PLY otherwise).
-    #[arg(long, value_parser = ["auto", "ply", "las", "laz"])]
+    /// LAS/LAZ/E57 as the input, COPC as LAZ, PLY otherwise).
+    #[arg(long, value_parser = ["auto", "ply", "las", "laz", "e57"])]
     pub format: Option<String>,
 }
 
@@ -326,6 +326,7 @@ fn run(cli: &Cli, a: &RunArgs) -> anyhow::Result<()> {
             "ply" => CloudFormat::Ply,
             "las" => CloudFormat::Las,
             "laz" => CloudFormat::Laz,
+            "e57" => CloudFormat::E57,
             _ => CloudFormat::Auto,
         };
     }

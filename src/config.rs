@@ -194,7 +194,7 @@ pub struct OutputSettings {
     #[serde(serialize_with = "ser_encoding")]
     pub encoding: PlyEncoding,
     pub precision: Precision,
-    /// File format of the rectified cloud (`auto`: LAS/LAZ as the input, PLY otherwise).
+    /// File format of the rectified cloud (`auto`: LAS/LAZ/E57 as the input, PLY otherwise).
     pub format: CloudFormat,
     /// Give edge points the class `edge_class` in a LAS/LAZ output.
     pub classify_edges: bool,
@@ -559,6 +559,7 @@ impl Checker<'_> {
                     ("ply", CloudFormat::Ply),
                     ("las", CloudFormat::Las),
                     ("laz", CloudFormat::Laz),
+                    ("e57", CloudFormat::E57),
                 ],
             )?,
             classify_edges: raw

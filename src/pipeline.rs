@@ -105,20 +105,26 @@ fn run_into(settings: &Settings, input: PathBuf, out_dir: &Path) -> Result<Summa
     pool.install(|| {
         let mut clock = Clock::new();
         let format = settings.output.format.resolve(&input)?;
-        let (cloud, lidar) = io::read_for_output(
+        let (cloud, original) = io::read_for_output(
             &input,
             &io::ReadOptions {
                 non_finite: settings.input.non_finite,
             },
             format,
         )?;
-        if let (Some(l), true, true) = (&lidar, format.is_lidar(), settings.output.classify_edges) {
+        let lidar = original.as_ref().and_then(io::Original::lidar);
+        if let (Some(l), true, true) = (lidar, format.is_lidar(), settings.output.classify_edges) {
             io::check_edge_class(l, settings.output.edge_class)?;
         }
         clock.lap("read");
         let outcome = process(cloud, settings, &mut clock)?;
-        let outputs =
-            report::write_all(&outcome, lidar.as_ref(), settings, out_dir, &clock.timings)?;
+        let outputs = report::write_all(
+            &outcome,
+            original.as_ref(),
+            settings,
+            out_dir,
+            &clock.timings,
+        )?;
         clock.lap("write");
         Ok(Summary {
             input,

@@ -83,11 +83,12 @@ fn at_destination(e: Error, staging: &Path, to: &Path) -> Error {
     }
 }
 
-/// Writes the four output files; `lidar` is the LAS/LAZ input (with its point records when
-/// the rectified cloud is LAS/LAZ). Returns their paths.
+/// Writes the four output files; `original` is what the input kept for its own format: the
+/// LAS/LAZ input (with its point records when the rectified cloud is LAS/LAZ) or the E57
+/// input's scans and records (for an E57 rectified cloud). Returns their paths.
 pub fn write_all(
     outcome: &Outcome,
-    lidar: Option<&io::Lidar>,
+    original: Option<&io::Original>,
     settings: &Settings,
     dir: &Path,
     timings: &[Timing],
@@ -120,8 +121,17 @@ pub fn write_all(
         let st = staging_dir.clone();
         move |e| at_destination(e, &st, &to)
     };
-    match (format.is_lidar(), lidar) {
-        (true, Some(l)) => crate::lidar_out::write_rectified(
+    let lidar = original.and_then(io::Original::lidar);
+    let missing = |what: &str| Error::BadOutput {
+        path: dir.join(&rectified_name),
+        what: format!("{what} output is written from the input's records, which were not given"),
+    };
+    match (format, original) {
+        (io::CloudFormat::E57, Some(io::Original::E57(e))) => {
+            io::write_e57(&staged[0], e, &outcome.rectified, &outcome.moved)
+        }
+        (io::CloudFormat::E57, _) => Err(missing("an E57")),
+        (f, Some(io::Original::Lidar(l))) if f.is_lidar() => crate::lidar_out::write_rectified(
             &staged[0],
             outcome,
             l,
@@ -133,13 +143,8 @@ pub fn write_all(
                     .then_some(settings.output.edge_class),
             },
         ),
-        (true, None) => Err(Error::BadOutput {
-            path: dir.join(&rectified_name),
-            what: "a LAS/LAZ output is written from the LAS/LAZ input's records, which were \
-                   not given"
-                .into(),
-        }),
-        (false, _) => write_rectified(&staged[0], outcome, &opts),
+        (f, _) if f.is_lidar() => Err(missing("a LAS/LAZ")),
+        _ => write_rectified(&staged[0], outcome, &opts),
     }
     .map_err(named(0))?;
     write_features(&staged[1], outcome, &opts).map_err(named(1))?;

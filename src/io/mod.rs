@@ -2,7 +2,7 @@
 //! the rest of the library sees only `Cloud`.
 //!
 //! Inputs: a path whose extension names the format (`.ply`, `.las`, `.laz` including COPC
-//! `.copc.laz`, and the text formats `.xyz`, `.txt`, `.pts`, `.pwn`). Outputs: a [`Cloud`] with
+//! `.copc.laz`, `.e57`, and the text formats `.xyz`, `.txt`, `.pts`, `.pwn`). Outputs: a [`Cloud`] with
 //! f64 positions in file order, every per-point property as a typed [`Attribute`], and a
 //! [`Source`](crate::Source) saying where it came from and whether its coordinates need double
 //! precision. Writers produce PLY (binary little endian or ascii, float or double
@@ -12,7 +12,9 @@
 //!
 //! A LAS/LAZ input read for a LAS/LAZ output ([`read_for_output`]) also hands back a
 //! [`Lidar`]: its header, EVLRs and raw point records, which [`write_las`] writes back with
-//! the rectified positions and sharpedge's fields as extra bytes. Edges and corners are also
+//! the rectified positions and sharpedge's fields as extra bytes; an E57 input read for an E57
+//! output hands back an [`E57File`] (every scan's records and metadata), which [`write_e57`]
+//! writes back scan by scan. Both are an [`Original`]. Edges and corners are also
 //! written as GeoJSON ([`write_geojson`]) in the input's [`Crs`].
 //!
 //! Points with NaN or infinite coordinates are rejected (error naming the first bad point) or
@@ -21,6 +23,7 @@
 pub mod mesh;
 
 mod crs;
+mod e57;
 mod geojson;
 mod las;
 mod las_check;
@@ -39,6 +42,7 @@ use crate::error::{Error, Result};
 
 pub use self::las::Lidar;
 pub use crs::Crs;
+pub use e57::{E57File, NO_CELL, write_e57};
 pub use geojson::{GeoFeature, Geometry, NO_CRS, write_geojson};
 pub use las_write::{ExtraField, LasWriteOptions, check_edge_class, max_class, write_las};
 pub use ply::{PlyEncoding, PlyWriteOptions, Precision, write_ply};
@@ -47,12 +51,13 @@ pub use ply::{PlyEncoding, PlyWriteOptions, Precision, write_ply};
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum CloudFormat {
-    /// LAS in → LAS out, LAZ (and COPC) in → LAZ out, PLY otherwise.
+    /// LAS in → LAS out, LAZ (and COPC) in → LAZ out, E57 in → E57 out, PLY otherwise.
     #[default]
     Auto,
     Ply,
     Las,
     Laz,
+    E57,
 }
 
 impl CloudFormat {
@@ -61,6 +66,7 @@ impl CloudFormat {
     /// records are what is written back).
     pub fn resolve(self, input: &Path) -> Result<CloudFormat> {
         let is_las = format_of(input).ok() == Some(Format::Las);
+        let is_e57 = format_of(input).ok() == Some(Format::E57);
         let is_laz = is_las
             && input
                 .extension()
@@ -68,6 +74,7 @@ impl CloudFormat {
         match self {
             CloudFormat::Auto if is_laz => Ok(CloudFormat::Laz),
             CloudFormat::Auto if is_las => Ok(CloudFormat::Las),
+            CloudFormat::Auto if is_e57 => Ok(CloudFormat::E57),
             CloudFormat::Auto => Ok(CloudFormat::Ply),
             CloudFormat::Las | CloudFormat::Laz if !is_las => Err(Error::Usage {
                 option: "output.format (--format)".into(),
@@ -75,6 +82,15 @@ impl CloudFormat {
                     "{}: a LAS or LAZ output is written from a LAS or LAZ input (its header, \
                      CRS and point records are written back); this input is no LAS/LAZ file. \
                      Use \"ply\" or \"auto\"",
+                    input.display()
+                ),
+            }),
+            CloudFormat::E57 if !is_e57 => Err(Error::Usage {
+                option: "output.format (--format)".into(),
+                message: format!(
+                    "{}: an E57 output is written from an E57 input (its scans, poses and \
+                     records are written back); this input is no E57 file. Use \"ply\" or \
+                     \"auto\"",
                     input.display()
                 ),
             }),
@@ -87,6 +103,7 @@ impl CloudFormat {
         match self {
             CloudFormat::Las => "las",
             CloudFormat::Laz => "laz",
+            CloudFormat::E57 => "e57",
             CloudFormat::Ply | CloudFormat::Auto => "ply",
         }
     }
@@ -115,11 +132,11 @@ pub struct ReadOptions {
 
 /// The extensions [`read`] accepts, for error messages.
 const READ_EXTENSIONS: &str =
-    "sharpedge reads .ply, .las, .laz (also .copc.laz), and text .xyz, .txt, .pts, .pwn";
+    "sharpedge reads .ply, .las, .laz (also .copc.laz), .e57, and text .xyz, .txt, .pts, .pwn";
 
 /// The same for a triangle mesh, which is no scan but can be made into one.
-const READ_EXTENSIONS_MESH: &str = "sharpedge reads .ply, .las, .laz (also .copc.laz), and \
-    text .xyz, .txt, .pts, .pwn; a triangle mesh is sampled into a scan with `sharpedge synth \
+const READ_EXTENSIONS_MESH: &str = "sharpedge reads .ply, .las, .laz (also .copc.laz), \
+    .e57, and text .xyz, .txt, .pts, .pwn; a triangle mesh is sampled into a scan with `sharpedge synth \
     --mesh FILE --out scan.ply`";
 
 /// Point counts from which readers show a progress bar (small files would only flicker).
@@ -130,6 +147,7 @@ enum Format {
     Ply,
     Las,
     Xyz,
+    E57,
 }
 
 fn format_of(path: &Path) -> Result<Format> {
@@ -143,6 +161,7 @@ fn format_of(path: &Path) -> Result<Format> {
         // The las crate tells LAS from LAZ (and COPC, which is LAZ 1.4) by the header.
         "las" | "laz" => Ok(Format::Las),
         "xyz" | "txt" | "pts" | "pwn" => Ok(Format::Xyz),
+        "e57" => Ok(Format::E57),
         _ => Err(Error::UnknownFormat {
             path: path.to_path_buf(),
             ext: ext.to_string(),
@@ -171,6 +190,7 @@ fn load(path: &Path) -> Result<Loaded> {
         Format::Ply => ply::read(path, ply::VertexPath::Fast)?,
         Format::Las => las::read(path)?,
         Format::Xyz => xyz::read(path)?,
+        Format::E57 => e57::read(path, false)?.0,
     };
     debug_assert!(
         loaded.cloud.is_consistent(),
@@ -196,27 +216,68 @@ pub fn read(path: &Path, opts: &ReadOptions) -> Result<Cloud> {
     Ok(cloud)
 }
 
+/// What an input keeps besides its cloud for writing the rectified cloud in its own format.
+// One per run, moved and never copied: boxing the LAS header would buy nothing.
+#[allow(clippy::large_enum_variant)]
+#[derive(Debug)]
+pub enum Original {
+    /// A LAS/LAZ input: header, EVLRs, CRS, and the raw point records for a LAS/LAZ output.
+    Lidar(Lidar),
+    /// An E57 input read for an E57 output: its scans' metadata and records.
+    E57(E57File),
+}
+
+impl Original {
+    /// The LAS/LAZ input's [`Lidar`], if this is one.
+    pub fn lidar(&self) -> Option<&Lidar> {
+        match self {
+            Original::Lidar(l) => Some(l),
+            Original::E57(_) => None,
+        }
+    }
+
+    /// Keeps the points whose `keep` flag is set (points dropped from the cloud).
+    fn retain_mask(&mut self, keep: &[bool]) {
+        match self {
+            Original::Lidar(l) => l.retain_mask(keep),
+            Original::E57(e) => e.retain_mask(keep),
+        }
+    }
+}
+
 /// Reads a cloud for a run whose rectified cloud is written as `output` (resolved). A LAS/LAZ
 /// input also gives its [`Lidar`] (header, EVLRs, CRS); for a LAS/LAZ output it holds the raw
 /// point records, and the cloud then carries no attribute columns (the records hold them: one
-/// copy of the points in memory, not two).
+/// copy of the points in memory, not two). An E57 input read for an E57 output gives its
+/// [`E57File`].
 pub fn read_for_output(
     path: &Path,
     opts: &ReadOptions,
     output: CloudFormat,
-) -> Result<(Cloud, Option<Lidar>)> {
-    if format_of(path)? != Format::Las {
+) -> Result<(Cloud, Option<Original>)> {
+    let format = format_of(path)?;
+    let wants_e57 = format == Format::E57 && output == CloudFormat::E57;
+    if format != Format::Las && !wants_e57 {
         return Ok((read(path, opts)?, None));
     }
     let _span = tracing::debug_span!("read", path = %path.display()).entered();
-    let (loaded, mut lidar) = las::read_lidar(path, output.is_lidar())?;
-    let mut cloud = loaded.cloud;
+    let (mut cloud, mut original) = if wants_e57 {
+        let (loaded, file) = e57::read(path, true)?;
+        let file = file.ok_or_else(|| Error::BadOutput {
+            path: path.to_path_buf(),
+            what: "the E57 reader kept no records for the E57 output".into(),
+        })?;
+        (loaded.cloud, Original::E57(file))
+    } else {
+        let (loaded, lidar) = las::read_lidar(path, output.is_lidar())?;
+        (loaded.cloud, Original::Lidar(lidar))
+    };
     let keep: Vec<bool> = cloud.positions.iter().map(is_finite_point).collect();
     apply_non_finite(&mut cloud, opts.non_finite)?;
     if cloud.len() != keep.len() {
-        lidar.retain_mask(&keep);
+        original.retain_mask(&keep);
     }
-    Ok((cloud, Some(lidar)))
+    Ok((cloud, Some(original)))
 }
 
 fn is_finite_point(p: &[f64; 3]) -> bool {
@@ -309,6 +370,45 @@ impl BBox {
     }
 }
 
+/// One scan of an input that records how it was scanned (E57 point clouds, organised PCD),
+/// as `sharpedge info` lists it.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ScanInfo {
+    pub name: String,
+    /// Points read from this scan (invalid records skipped).
+    pub points: usize,
+    /// The sensor position: the pose's translation.
+    pub position: [f64; 3],
+    /// The pose's rotation, a quaternion `[w, x, y, z]`.
+    pub rotation: [f64; 4],
+    /// `[rows, columns]` of a structured scan; `None` for an unstructured one.
+    pub grid: Option<[u32; 2]>,
+}
+
+impl ScanInfo {
+    /// The scans of a cloud's structure with their point counts (none without a structure).
+    fn of(cloud: &Cloud) -> Vec<ScanInfo> {
+        let Some(st) = &cloud.structure else {
+            return Vec::new();
+        };
+        let mut counts = vec![0usize; st.scans.len()];
+        for &s in &st.scan {
+            counts[s as usize] += 1;
+        }
+        st.scans
+            .iter()
+            .zip(counts)
+            .map(|(s, points)| ScanInfo {
+                name: s.name.clone(),
+                points,
+                position: s.pose.translation,
+                rotation: s.pose.rotation,
+                grid: s.grid_size,
+            })
+            .collect()
+    }
+}
+
 /// What `sharpedge info` prints (also as JSON).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct FileInfo {
@@ -332,6 +432,9 @@ pub struct FileInfo {
     pub double_precision: bool,
     /// Mean distance to the nearest neighbour (filled by the neighbours module; None here).
     pub mean_spacing: Option<f64>,
+    /// The scans, for inputs that record them (E57, organised PCD); empty otherwise.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub scans: Vec<ScanInfo>,
 }
 
 impl std::fmt::Display for FileInfo {
@@ -364,6 +467,23 @@ impl std::fmt::Display for FileInfo {
                 .map(|e| format!("{} {}", e.name, e.count))
                 .collect();
             writeln!(f, "not read:    {}", els.join(", "))?;
+        }
+        if !self.scans.is_empty() {
+            writeln!(f, "scans:       {}", self.scans.len())?;
+        }
+        for (i, s) in self.scans.iter().enumerate() {
+            let [x, y, z] = s.position;
+            let [qw, qx, qy, qz] = s.rotation;
+            write!(
+                f,
+                "  scan {i} {:?}: {} points, sensor at ({x}, {y}, {z}), rotation \
+                 (w {qw}, x {qx}, y {qy}, z {qz}), ",
+                s.name, s.points
+            )?;
+            match s.grid {
+                Some([r, c]) => writeln!(f, "structured {r} rows x {c} columns")?,
+                None => writeln!(f, "unstructured")?,
+            }
         }
         match &self.bbox {
             Some(b) => {
@@ -428,6 +548,7 @@ pub fn describe(path: &Path) -> Result<FileInfo> {
         duplicates: finite.len() - distinct.len(),
         // Over distinct finite positions; a subsample keeps `info` quick on big files.
         mean_spacing: crate::neighbours::mean_spacing_of(&distinct, &finite, 100_000),
+        scans: ScanInfo::of(cloud),
     })
 }
 
