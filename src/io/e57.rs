@@ -735,6 +735,28 @@ fn widen(dt: &mut RecordDataType, v: &RecordValue) {
     }
 }
 
+/// Gives the state and flag records the ranges the e57 writer insists on (invalid states
+/// [0, 2], `is*Invalid` flags [0, 1]) when the file declares a narrower one: libE57Format
+/// writes `cartesianInvalidState` as [0, 1] when no record is invalid. The values stay the
+/// same; only the declared range (and so the bits per value) changes.
+fn flag_ranges(proto: &mut [e57::Record]) {
+    for r in proto {
+        let want = match r.name {
+            RecordName::CartesianInvalidState | RecordName::SphericalInvalidState => 2,
+            RecordName::IsColorInvalid
+            | RecordName::IsIntensityInvalid
+            | RecordName::IsTimeStampInvalid => 1,
+            _ => continue,
+        };
+        if let RecordDataType::Integer { min, max } = &mut r.data_type
+            && *min >= 0
+            && *max <= want
+        {
+            (*min, *max) = (0, want);
+        }
+    }
+}
+
 /// The new stored values of a moved point, `q` in its scan's frame: the cartesian and
 /// spherical coordinates the prototype has. The azimuth is taken in the turn of the old one
 /// (a file may store azimuths in [0, 2π) or (-π, π]).
@@ -799,6 +821,7 @@ pub fn write_e57(
     let mut plans = Vec::with_capacity(file.scans.len());
     for (s, scan) in file.scans.iter().enumerate() {
         let mut proto = scan.pc.prototype.clone();
+        flag_ranges(&mut proto);
         let slots = Slots::of(&proto);
         let mut changes: Vec<(usize, Vec<(usize, RecordValue)>)> = Vec::new();
         for (r, _) in scan.taken.iter().enumerate().filter(|(_, t)| **t) {
