@@ -250,6 +250,12 @@ fn two_scans_round_trip_through_the_binary() {
     c.run("scan.e57", &[]).assert_ok();
     let out_e57 = c.out().join("rectified.e57");
     assert!(out_e57.is_file(), "{:?}", entries(&c.out()));
+    // For scripts/check_e57.sh (libE57Format): SHARPEDGE_E57_SAMPLES=DIR keeps both files.
+    if let Some(keep) = std::env::var_os("SHARPEDGE_E57_SAMPLES") {
+        std::fs::create_dir_all(&keep).unwrap();
+        std::fs::copy(&input, Path::new(&keep).join("two_scans.e57")).unwrap();
+        std::fs::copy(&out_e57, Path::new(&keep).join("two_scans_rectified.e57")).unwrap();
+    }
     assert_eq!(merged_edges, edges_of(&c.out()));
     let moved_count = report(&c.out())["counts"]["moved"].as_u64().unwrap();
 

@@ -995,3 +995,101 @@ fn write_scans(path: &Path, f: std::fs::File, file: &E57File, plans: Vec<Plan>) 
     w.finalize().map_err(|e| err("XML", e))?;
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn pc_with(q: [f64; 4], t: [f64; 3]) -> PointCloud {
+        let mut tr = e57::Transform::default();
+        (tr.rotation.w, tr.rotation.x, tr.rotation.y, tr.rotation.z) = (q[0], q[1], q[2], q[3]);
+        (tr.translation.x, tr.translation.y, tr.translation.z) = (t[0], t[1], t[2]);
+        // PointCloud has no public constructor: take one from a file written in memory.
+        let mut buf = std::io::Cursor::new(Vec::new());
+        {
+            let mut w = E57Writer::new(&mut buf, "g").unwrap();
+            let mut p = w
+                .add_pointcloud(
+                    "s",
+                    vec![
+                        e57::Record::CARTESIAN_X_F64,
+                        e57::Record::CARTESIAN_Y_F64,
+                        e57::Record::CARTESIAN_Z_F64,
+                    ],
+                )
+                .unwrap();
+            p.finalize().unwrap();
+            w.finalize().unwrap();
+        }
+        buf.set_position(0);
+        let mut pc = E57Reader::new(buf).unwrap().pointclouds().remove(0);
+        pc.transform = Some(tr);
+        pc
+    }
+
+    #[test]
+    fn to_scan_inverts_the_pose() {
+        let n = (0.9f64 * 0.9 + 0.1 * 0.1 + 0.2 * 0.2 + 0.3 * 0.3).sqrt();
+        let pc = pc_with([0.9 / n, 0.1 / n, -0.2 / n, 0.3 / n], [5.0, -2.0, 1.0]);
+        let (m, t, pose) = rotation_of(&pc);
+        assert_eq!(pose.translation, [5.0, -2.0, 1.0]);
+        let q = [1.5, -0.25, 3.0];
+        let back = to_scan(&m, &t, to_cloud(&m, &t, q)).unwrap();
+        for k in 0..3 {
+            assert!((back[k] - q[k]).abs() < 1e-12, "{back:?}");
+        }
+        // A zero quaternion has no inverse: reported, not a NaN point.
+        let pc0 = pc_with([0.0; 4], [0.0; 3]);
+        let (m0, t0, _) = rotation_of(&pc0);
+        assert_eq!(to_scan(&m0, &t0, [1.0, 2.0, 3.0]), None);
+    }
+
+    #[test]
+    fn encode_rounds_to_the_scaled_integer_step_and_widen_covers_it() {
+        let mut dt = RecordDataType::ScaledInteger {
+            min: -100,
+            max: 100,
+            scale: 0.01,
+            offset: 1.0,
+        };
+        let v = encode(&dt, 2.5).unwrap();
+        assert_eq!(v, RecordValue::ScaledInteger(150));
+        widen(&mut dt, &v);
+        assert!(matches!(
+            dt,
+            RecordDataType::ScaledInteger {
+                min: -100,
+                max: 150,
+                ..
+            }
+        ));
+        assert_eq!(encode(&dt, f64::NAN), None);
+        assert_eq!(
+            encode(&RecordDataType::F32, 0.1),
+            Some(RecordValue::Single(0.1))
+        );
+    }
+
+    #[test]
+    fn flag_ranges_widen_only_narrower_flags() {
+        let rec = |name, min, max| e57::Record {
+            name,
+            data_type: RecordDataType::Integer { min, max },
+        };
+        let mut p = vec![
+            rec(RecordName::CartesianInvalidState, 0, 1),
+            rec(RecordName::IsColorInvalid, 0, 0),
+            rec(RecordName::RowIndex, 0, 1),
+        ];
+        flag_ranges(&mut p);
+        let ranges: Vec<String> = p.iter().map(|r| format!("{:?}", r.data_type)).collect();
+        assert_eq!(
+            ranges,
+            [
+                "Integer { min: 0, max: 2 }",
+                "Integer { min: 0, max: 1 }",
+                "Integer { min: 0, max: 1 }"
+            ]
+        );
+    }
+}
