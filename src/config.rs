@@ -989,8 +989,10 @@ mod tests {
         let e = err("[output]\n\nformat = \"copc\"\n");
         assert_eq!(
             e,
-            "pipeline.toml:3: output.format: must be one of \"auto\", \"ply\", \"las\", \"laz\", got \"copc\""
+            "pipeline.toml:3: output.format: must be one of \"auto\", \"ply\", \"las\", \"laz\", \"e57\", got \"copc\""
         );
+        let e57 = parse_str("[output]\nformat = \"e57\"\n").unwrap();
+        assert_eq!(e57.output.format, CloudFormat::E57);
         let e = err("[output]\nedge_class = 256\n");
         assert!(
             e.starts_with(

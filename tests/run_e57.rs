@@ -384,3 +384,66 @@ fn a_file_that_is_no_e57_is_reported() {
         &["header: not an E57 file: it starts with \"ply\\nform\", not \"ASTM-E57\""],
     );
 }
+
+/// CRC-32C of an E57 page's data, stored big endian in its last 4 bytes.
+fn fix_crcs(bytes: &mut [u8]) {
+    for page in bytes.chunks_exact_mut(1024) {
+        let mut crc = !0u32;
+        for &b in &page[..1020] {
+            crc ^= u32::from(b);
+            for _ in 0..8 {
+                crc = if crc & 1 == 1 {
+                    (crc >> 1) ^ 0x82F6_3B78
+                } else {
+                    crc >> 1
+                };
+            }
+        }
+        page[1020..].copy_from_slice(&(!crc).to_be_bytes());
+    }
+}
+
+#[test]
+fn a_record_count_the_file_cannot_hold_is_refused_before_reading() {
+    // 1000 double points (24 KB of coordinates), then the XML made to claim 9999 records
+    // (240 KB) with valid page checksums: refused from the sizes, nothing reserved for them.
+    let c = Case::new();
+    let p = c.path().join("lying.e57");
+    let points: Vec<[f64; 3]> = (0..1000).map(|i| [i as f64, 0.5, -1.0]).collect();
+    {
+        let mut w = E57Writer::from_file(&p, "lying").unwrap();
+        let mut pc = w
+            .add_pointcloud(
+                "lying-scan",
+                vec![
+                    Record::CARTESIAN_X_F64,
+                    Record::CARTESIAN_Y_F64,
+                    Record::CARTESIAN_Z_F64,
+                ],
+            )
+            .unwrap();
+        for q in &points {
+            pc.add_point(q.iter().map(|&v| RecordValue::Double(v)).collect())
+                .unwrap();
+        }
+        pc.finalize().unwrap();
+        w.finalize().unwrap();
+    }
+    let mut bytes = std::fs::read(&p).unwrap();
+    let needle = b"recordCount=\"1000\"";
+    let at = bytes
+        .windows(needle.len())
+        .position(|w| w == needle)
+        .expect("the XML states the record count");
+    bytes[at + 13..at + 17].copy_from_slice(b"9999");
+    fix_crcs(&mut bytes);
+    std::fs::write(&p, &bytes).unwrap();
+    refused(
+        &p,
+        &[&format!(
+            "scan 0: the scan claims 9999 records of 192 bits, which with the scans before it \
+             is more than the {}-byte file can hold",
+            bytes.len()
+        )],
+    );
+}

@@ -528,18 +528,20 @@ fn read_inner(path: &Path, keep_records: bool) -> Result<(Loaded, Option<E57File
         E57Reader::new(PageReader::new(file)).map_err(|e| e57_error(path, "header and XML", e))?;
     let pcs = reader.pointclouds();
     let total_records: u64 = pcs.iter().map(|pc| pc.records).sum();
+    // A record of b bits needs b bits of data, and all scans share the file; a record of 0
+    // bits (constants only) counts as 1. So a lying count cannot make us reserve what the
+    // file cannot back: at most 8 records per byte, for such degenerate prototypes only.
+    let mut claimed_bits = 0u64;
     for (s, pc) in pcs.iter().enumerate() {
-        // A record of b bits needs b bits of data; one of 0 bits (a constant) is capped at
-        // 8 per byte of the file, so that a lying count cannot make us allocate what the file
-        // cannot back.
         let bits = record_bits(&pc.prototype).max(1);
-        if pc.records.saturating_mul(bits) > len.saturating_mul(8) {
+        claimed_bits = claimed_bits.saturating_add(pc.records.saturating_mul(bits));
+        if claimed_bits > len.saturating_mul(8) {
             return Err(Error::malformed(
                 path,
                 format!("scan {s}"),
                 format!(
-                    "the scan claims {} records of {bits} bits, more than the {len}-byte file \
-                     can hold",
+                    "the scan claims {} records of {bits} bits, which with the scans before \
+                     it is more than the {len}-byte file can hold",
                     pc.records
                 ),
             ));
