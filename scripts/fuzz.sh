@@ -3,7 +3,7 @@
 #
 # Builds the cargo-fuzz targets in fuzz/ (nightly toolchain and cargo-fuzz needed:
 # `rustup toolchain install nightly`, `cargo install --locked cargo-fuzz`) and runs each
-# target (default: all of ply las xyz mesh config pcd) for SECONDS, one after another on one
+# target (default: all of ply las xyz mesh config pcd e57) for SECONDS, one after another on one
 # core, starting from the committed seeds in fuzz/corpus-seed/<target> and the corpus kept in
 # fuzz/corpus/<target> (created when missing), with the target's dictionary. A run fails on
 # a crash (panic, abort), an input taking more than 1 s, more than 2048 MB of RSS or one
@@ -21,14 +21,14 @@
 # once, at exit, after a clean 840-s las run).
 set -uo pipefail
 
-usage="usage: scripts/fuzz.sh SECONDS [TARGET...]   (targets: ply las xyz mesh config pcd)"
+usage="usage: scripts/fuzz.sh SECONDS [TARGET...]   (targets: ply las xyz mesh config pcd e57)"
 secs=${1:-}
 if ! [[ "$secs" =~ ^[0-9]+$ ]] || [ "$secs" -eq 0 ]; then
   echo "$usage" >&2
   exit 2
 fi
 shift
-all=(ply las xyz mesh config pcd)
+all=(ply las xyz mesh config pcd e57)
 targets=("$@")
 [ ${#targets[@]} -eq 0 ] && targets=("${all[@]}")
 for t in "${targets[@]}"; do

@@ -49,8 +49,8 @@ pub struct RunArgs {
     #[arg(long)]
     pub threads: Option<usize>,
     /// File format of the rectified cloud; overrides `output.format` of the config (auto:
-    /// LAS/LAZ as the input, COPC as LAZ, PCD as PCD, PLY otherwise).
-    #[arg(long, value_parser = ["auto", "ply", "las", "laz", "pcd"])]
+    /// LAS/LAZ/PCD/E57 as the input, COPC as LAZ, PLY otherwise).
+    #[arg(long, value_parser = ["auto", "ply", "las", "laz", "pcd", "e57"])]
     pub format: Option<String>,
 }
 
@@ -327,6 +327,7 @@ fn run(cli: &Cli, a: &RunArgs) -> anyhow::Result<()> {
             "las" => CloudFormat::Las,
             "laz" => CloudFormat::Laz,
             "pcd" => CloudFormat::Pcd,
+            "e57" => CloudFormat::E57,
             _ => CloudFormat::Auto,
         };
     }

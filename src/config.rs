@@ -194,7 +194,7 @@ pub struct OutputSettings {
     #[serde(serialize_with = "ser_encoding")]
     pub encoding: PlyEncoding,
     pub precision: Precision,
-    /// File format of the rectified cloud (`auto`: LAS/LAZ or PCD as the input, PLY otherwise).
+    /// File format of the rectified cloud (`auto`: LAS/LAZ, PCD or E57 as the input, PLY otherwise).
     pub format: CloudFormat,
     /// Give edge points the class `edge_class` in a LAS/LAZ output.
     pub classify_edges: bool,
@@ -560,6 +560,7 @@ impl Checker<'_> {
                     ("las", CloudFormat::Las),
                     ("laz", CloudFormat::Laz),
                     ("pcd", CloudFormat::Pcd),
+                    ("e57", CloudFormat::E57),
                 ],
             )?,
             classify_edges: raw
@@ -989,8 +990,10 @@ mod tests {
         let e = err("[output]\n\nformat = \"copc\"\n");
         assert_eq!(
             e,
-            "pipeline.toml:3: output.format: must be one of \"auto\", \"ply\", \"las\", \"laz\", \"pcd\", got \"copc\""
+            "pipeline.toml:3: output.format: must be one of \"auto\", \"ply\", \"las\", \"laz\", \"pcd\", \"e57\", got \"copc\""
         );
+        let e57 = parse_str("[output]\nformat = \"e57\"\n").unwrap();
+        assert_eq!(e57.output.format, CloudFormat::E57);
         let e = err("[output]\nedge_class = 256\n");
         assert!(
             e.starts_with(

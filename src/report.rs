@@ -83,9 +83,10 @@ fn at_destination(e: Error, staging: &Path, to: &Path) -> Error {
     }
 }
 
-/// Writes the four output files; `original` is what the input's own format needs: the
-/// LAS/LAZ input (with its point records when the rectified cloud is LAS/LAZ) or the PCD
-/// input's records for a PCD output. Returns their paths.
+/// Writes the four output files; `original` is what the input kept for its own format: the
+/// LAS/LAZ input (with its point records when the rectified cloud is LAS/LAZ), the PCD
+/// input's records (for a PCD output) or the E57 input's scans and records (for an E57
+/// output). Returns their paths.
 pub fn write_all(
     outcome: &Outcome,
     original: Option<&io::Original>,
@@ -122,20 +123,20 @@ pub fn write_all(
         move |e| at_destination(e, &st, &to)
     };
     let lidar = original.and_then(io::Original::lidar);
-    let pcd = match original {
-        Some(io::Original::Pcd(p)) => Some(p),
-        _ => None,
+    let missing = |what: &str| Error::BadOutput {
+        path: dir.join(&rectified_name),
+        what: format!("{what} output is written from the input's records, which were not given"),
     };
-    match (format, lidar, pcd) {
-        (io::CloudFormat::Pcd, _, Some(p)) => {
+    match (format, original) {
+        (io::CloudFormat::Pcd, Some(io::Original::Pcd(p))) => {
             io::write_pcd(&staged[0], p, &outcome.rectified, &outcome.moved)
         }
-        (io::CloudFormat::Pcd, _, None) => Err(Error::BadOutput {
-            path: dir.join(&rectified_name),
-            what: "a PCD output is written from the PCD input's records, which were not given"
-                .into(),
-        }),
-        (f, Some(l), _) if f.is_lidar() => crate::lidar_out::write_rectified(
+        (io::CloudFormat::Pcd, _) => Err(missing("a PCD")),
+        (io::CloudFormat::E57, Some(io::Original::E57(e))) => {
+            io::write_e57(&staged[0], e, &outcome.rectified, &outcome.moved)
+        }
+        (io::CloudFormat::E57, _) => Err(missing("an E57")),
+        (f, Some(io::Original::Lidar(l))) if f.is_lidar() => crate::lidar_out::write_rectified(
             &staged[0],
             outcome,
             l,
@@ -147,12 +148,7 @@ pub fn write_all(
                     .then_some(settings.output.edge_class),
             },
         ),
-        (f, None, _) if f.is_lidar() => Err(Error::BadOutput {
-            path: dir.join(&rectified_name),
-            what: "a LAS/LAZ output is written from the LAS/LAZ input's records, which were \
-                   not given"
-                .into(),
-        }),
+        (f, _) if f.is_lidar() => Err(missing("a LAS/LAZ")),
         _ => write_rectified(&staged[0], outcome, &opts),
     }
     .map_err(named(0))?;

@@ -484,7 +484,7 @@ fn format_option_chooses_ply_for_las_and_refuses_las_for_ply() {
         "bad",
         &[],
         &[
-            "pipeline.toml:2: output.format: must be one of \"auto\", \"ply\", \"las\", \"laz\", \"pcd\", got \"las3\"",
+            "pipeline.toml:2: output.format: must be one of \"auto\", \"ply\", \"las\", \"laz\", \"pcd\", \"e57\", got \"las3\"",
         ],
     );
     let mut f = std::fs::File::open(c.path().join("scan.las")).unwrap();

@@ -24,7 +24,7 @@ fn main() {
             std::process::exit(2);
         }
     };
-    for t in ["ply", "las", "xyz", "mesh", "config", "pcd"] {
+    for t in ["ply", "las", "xyz", "mesh", "config", "pcd", "e57"] {
         std::fs::create_dir_all(out.join(t)).expect("cannot create the corpus folders");
     }
     ply_seeds(&root, &out.join("ply"));
@@ -33,6 +33,7 @@ fn main() {
     mesh_seeds(&out.join("mesh"));
     config_seeds(&root, &out.join("config"));
     pcd_seeds(&out.join("pcd"));
+    e57_seeds(&out.join("e57"));
 }
 
 /// A PCD header for `fields` (name, TYPE, SIZE, COUNT) and a WIDTH x HEIGHT frame.
@@ -354,4 +355,117 @@ fn config_seeds(root: &Path, dir: &Path) {
         b"input = { path = \"a.ply\", sensors = [[0.0, 0.0, 5.0], [1, 2, 3]] }\n\
           output.dir = \"res\"\nfit.pso.iterations_2d = 30\nedges.band = 2.5\n",
     );
+}
+
+/// E57 seeds written with the e57 crate (each a few pages): double cartesian with intensity
+/// and colour; spherical with invalid records and row/column indices; two scans of scaled
+/// integers with poses.
+fn e57_seeds(dir: &Path) {
+    use e57::{E57Writer, Record, RecordDataType, RecordName, RecordValue};
+    let xyz = |i: usize| {
+        let t = i as f64 * 0.37;
+        [t.cos() * 2.0, t.sin() * 2.0, i as f64 * 0.05]
+    };
+    let ok = |r: e57::Result<()>| r.expect("e57 writer");
+
+    let mut w = E57Writer::from_file(dir.join("cartesian_rgb.e57"), "seed-1").expect("e57");
+    let mut pc = w
+        .add_pointcloud(
+            "seed-1-scan",
+            vec![
+                Record::CARTESIAN_X_F64,
+                Record::CARTESIAN_Y_F64,
+                Record::CARTESIAN_Z_F64,
+                Record::INTENSITY_U16,
+                Record::COLOR_RED_U8,
+                Record::COLOR_GREEN_U8,
+                Record::COLOR_BLUE_U8,
+            ],
+        )
+        .expect("e57");
+    for i in 0..30 {
+        let p = xyz(i);
+        let c = |k: usize| RecordValue::Integer(((i * 40 + k * 80) % 256) as i64);
+        ok(pc.add_point(vec![
+            RecordValue::Double(p[0]),
+            RecordValue::Double(p[1]),
+            RecordValue::Double(p[2]),
+            RecordValue::Integer(i as i64 * 1000),
+            c(0),
+            c(1),
+            c(2),
+        ]));
+    }
+    ok(pc.finalize());
+    ok(w.finalize());
+
+    let mut w = E57Writer::from_file(dir.join("spherical_grid.e57"), "seed-2").expect("e57");
+    let index = |name| Record {
+        name,
+        data_type: RecordDataType::Integer { min: 0, max: 7 },
+    };
+    let mut pc = w
+        .add_pointcloud(
+            "seed-2-scan",
+            vec![
+                Record::SPHERICAL_RANGE_F32,
+                Record::SPHERICAL_AZIMUTH_F32,
+                Record::SPHERICAL_ELEVATION_F32,
+                Record::SPHERICAL_INVALID_STATE,
+                index(RecordName::RowIndex),
+                index(RecordName::ColumnIndex),
+            ],
+        )
+        .expect("e57");
+    for i in 0..32 {
+        ok(pc.add_point(vec![
+            RecordValue::Single(1.0 + i as f32 * 0.1),
+            RecordValue::Single(i as f32 * 0.2),
+            RecordValue::Single(0.5 - i as f32 * 0.03),
+            RecordValue::Integer(if i % 5 == 0 { 2 } else { 0 }),
+            RecordValue::Integer((i / 8) as i64),
+            RecordValue::Integer((i % 8) as i64),
+        ]));
+    }
+    ok(pc.finalize());
+    ok(w.finalize());
+
+    let mut w = E57Writer::from_file(dir.join("two_scans_scaled.e57"), "seed-3").expect("e57");
+    let coord = |name| Record {
+        name,
+        data_type: RecordDataType::ScaledInteger {
+            min: -100_000,
+            max: 100_000,
+            scale: 0.001,
+            offset: 0.0,
+        },
+    };
+    for s in 0..2 {
+        let mut pc = w
+            .add_pointcloud(
+                &format!("seed-3-scan-{s}"),
+                vec![
+                    coord(RecordName::CartesianX),
+                    coord(RecordName::CartesianY),
+                    coord(RecordName::CartesianZ),
+                ],
+            )
+            .expect("e57");
+        let mut t = e57::Transform::default();
+        t.rotation.w = 0.8;
+        t.rotation.z = 0.6 * (s as f64 * 2.0 - 1.0);
+        t.translation.x = 10.0 * s as f64;
+        pc.set_transform(Some(t));
+        pc.set_name(Some(format!("scan {s}")));
+        for i in 0..25 {
+            let p = xyz(i + s * 25);
+            ok(pc.add_point(
+                p.iter()
+                    .map(|v| RecordValue::ScaledInteger((v * 1000.0).round() as i64))
+                    .collect(),
+            ));
+        }
+        ok(pc.finalize());
+    }
+    ok(w.finalize());
 }

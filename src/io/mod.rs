@@ -2,7 +2,7 @@
 //! the rest of the library sees only `Cloud`.
 //!
 //! Inputs: a path whose extension names the format (`.ply`, `.las`, `.laz` including COPC
-//! `.copc.laz`, PCL's `.pcd`, and the text formats `.xyz`, `.txt`, `.pts`, `.pwn`). Outputs: a [`Cloud`] with
+//! `.copc.laz`, PCL's `.pcd`, `.e57`, and the text formats `.xyz`, `.txt`, `.pts`, `.pwn`). Outputs: a [`Cloud`] with
 //! f64 positions in file order, every per-point property as a typed [`Attribute`], and a
 //! [`Source`](crate::Source) saying where it came from and whether its coordinates need double
 //! precision. Writers produce PLY (binary little endian or ascii, float or double
@@ -13,8 +13,9 @@
 //! A LAS/LAZ input read for a LAS/LAZ output ([`read_for_output`]) also hands back a
 //! [`Lidar`]: its header, EVLRs and raw point records, which [`write_las`] writes back with
 //! the rectified positions and sharpedge's fields as extra bytes; a PCD input read for a PCD
-//! output hands back a [`PcdFile`] the same way, which [`write_pcd`] writes back. Both are an
-//! [`Original`]. Edges and corners are also
+//! output hands back a [`PcdFile`] the same way, which [`write_pcd`] writes back, and an E57
+//! input read for an E57 output an [`E57File`] (every scan's records and metadata), which
+//! [`write_e57`] writes back scan by scan. All are an [`Original`]. Edges and corners are also
 //! written as GeoJSON ([`write_geojson`]) in the input's [`Crs`].
 //!
 //! Points with NaN or infinite coordinates are rejected (error naming the first bad point) or
@@ -23,6 +24,7 @@
 pub mod mesh;
 
 mod crs;
+mod e57;
 mod geojson;
 mod las;
 mod las_check;
@@ -42,6 +44,7 @@ use crate::error::{Error, Result};
 
 pub use self::las::Lidar;
 pub use crs::Crs;
+pub use e57::{E57File, NO_CELL, write_e57};
 pub use geojson::{GeoFeature, Geometry, NO_CRS, write_geojson};
 pub use las_write::{ExtraField, LasWriteOptions, check_edge_class, max_class, write_las};
 pub use pcd::{PcdEncoding, PcdFile, write_pcd};
@@ -51,13 +54,15 @@ pub use ply::{PlyEncoding, PlyWriteOptions, Precision, write_ply};
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum CloudFormat {
-    /// LAS in → LAS out, LAZ (and COPC) in → LAZ out, PCD in → PCD out, PLY otherwise.
+    /// LAS in → LAS out, LAZ (and COPC) in → LAZ out, PCD in → PCD out, E57 in → E57 out, PLY
+    /// otherwise.
     #[default]
     Auto,
     Ply,
     Las,
     Laz,
     Pcd,
+    E57,
 }
 
 impl CloudFormat {
@@ -67,6 +72,7 @@ impl CloudFormat {
     pub fn resolve(self, input: &Path) -> Result<CloudFormat> {
         let is_las = format_of(input).ok() == Some(Format::Las);
         let is_pcd = format_of(input).ok() == Some(Format::Pcd);
+        let is_e57 = format_of(input).ok() == Some(Format::E57);
         let is_laz = is_las
             && input
                 .extension()
@@ -75,6 +81,7 @@ impl CloudFormat {
             CloudFormat::Auto if is_laz => Ok(CloudFormat::Laz),
             CloudFormat::Auto if is_las => Ok(CloudFormat::Las),
             CloudFormat::Auto if is_pcd => Ok(CloudFormat::Pcd),
+            CloudFormat::Auto if is_e57 => Ok(CloudFormat::E57),
             CloudFormat::Auto => Ok(CloudFormat::Ply),
             CloudFormat::Pcd if !is_pcd => Err(Error::Usage {
                 option: "output.format (--format)".into(),
@@ -94,6 +101,15 @@ impl CloudFormat {
                     input.display()
                 ),
             }),
+            CloudFormat::E57 if !is_e57 => Err(Error::Usage {
+                option: "output.format (--format)".into(),
+                message: format!(
+                    "{}: an E57 output is written from an E57 input (its scans, poses and \
+                     records are written back); this input is no E57 file. Use \"ply\" or \
+                     \"auto\"",
+                    input.display()
+                ),
+            }),
             f => Ok(f),
         }
     }
@@ -105,6 +121,7 @@ impl CloudFormat {
             CloudFormat::Las => "las",
             CloudFormat::Laz => "laz",
             CloudFormat::Pcd => "pcd",
+            CloudFormat::E57 => "e57",
             CloudFormat::Ply | CloudFormat::Auto => "ply",
         }
     }
@@ -132,11 +149,10 @@ pub struct ReadOptions {
 }
 
 /// The extensions [`read`] accepts, for error messages.
-const READ_EXTENSIONS: &str =
-    "sharpedge reads .ply, .las, .laz (also .copc.laz), .pcd, and text .xyz, .txt, .pts, .pwn";
+const READ_EXTENSIONS: &str = "sharpedge reads .ply, .las, .laz (also .copc.laz), .pcd, .e57, and text .xyz, .txt, .pts, .pwn";
 
 /// The same for a triangle mesh, which is no scan but can be made into one.
-const READ_EXTENSIONS_MESH: &str = "sharpedge reads .ply, .las, .laz (also .copc.laz), .pcd, \
+const READ_EXTENSIONS_MESH: &str = "sharpedge reads .ply, .las, .laz (also .copc.laz), .pcd, .e57, \
     and text .xyz, .txt, .pts, .pwn; a triangle mesh is sampled into a scan with `sharpedge synth \
     --mesh FILE --out scan.ply`";
 
@@ -149,6 +165,7 @@ enum Format {
     Las,
     Pcd,
     Xyz,
+    E57,
 }
 
 fn format_of(path: &Path) -> Result<Format> {
@@ -163,6 +180,7 @@ fn format_of(path: &Path) -> Result<Format> {
         "las" | "laz" => Ok(Format::Las),
         "pcd" => Ok(Format::Pcd),
         "xyz" | "txt" | "pts" | "pwn" => Ok(Format::Xyz),
+        "e57" => Ok(Format::E57),
         _ => Err(Error::UnknownFormat {
             path: path.to_path_buf(),
             ext: ext.to_string(),
@@ -195,6 +213,7 @@ fn load(path: &Path) -> Result<Loaded> {
         Format::Las => las::read(path)?,
         Format::Pcd => pcd::read(path)?,
         Format::Xyz => xyz::read(path)?,
+        Format::E57 => e57::read(path, false)?.0,
     };
     debug_assert!(
         loaded.cloud.is_consistent(),
@@ -220,22 +239,34 @@ pub fn read(path: &Path, opts: &ReadOptions) -> Result<Cloud> {
     Ok(cloud)
 }
 
-/// What a writer of the same format needs of the input beyond the cloud.
-// One value per run: boxing the larger variant would save nothing worth an indirection.
+/// What an input keeps besides its cloud for writing the rectified cloud in its own format.
+// One per run, moved and never copied: boxing the LAS header would buy nothing.
 #[allow(clippy::large_enum_variant)]
+#[derive(Debug)]
 pub enum Original {
-    /// A LAS/LAZ input: header, EVLRs, CRS, and for a LAS/LAZ output the raw point records.
+    /// A LAS/LAZ input: header, EVLRs, CRS, and the raw point records for a LAS/LAZ output.
     Lidar(Lidar),
     /// A PCD input read for a PCD output: header and every slot's record.
     Pcd(PcdFile),
+    /// An E57 input read for an E57 output: its scans' metadata and records.
+    E57(E57File),
 }
 
 impl Original {
-    /// The LAS/LAZ input, if this is one.
+    /// The LAS/LAZ input's [`Lidar`], if this is one.
     pub fn lidar(&self) -> Option<&Lidar> {
         match self {
             Original::Lidar(l) => Some(l),
             _ => None,
+        }
+    }
+
+    /// Keeps the points whose `keep` flag is set (points dropped from the cloud).
+    fn retain_mask(&mut self, keep: &[bool]) {
+        match self {
+            Original::Lidar(l) => l.retain_mask(keep),
+            Original::Pcd(p) => p.retain_mask(keep),
+            Original::E57(e) => e.retain_mask(keep),
         }
     }
 }
@@ -244,37 +275,41 @@ impl Original {
 /// input also gives its [`Lidar`] (header, EVLRs, CRS); for a LAS/LAZ output it holds the raw
 /// point records, and the cloud then carries no attribute columns (the records hold them: one
 /// copy of the points in memory, not two). A PCD input read for a PCD output gives its
-/// [`PcdFile`] the same way.
+/// [`PcdFile`] the same way, an E57 input read for an E57 output its [`E57File`].
 pub fn read_for_output(
     path: &Path,
     opts: &ReadOptions,
     output: CloudFormat,
 ) -> Result<(Cloud, Option<Original>)> {
     let format = format_of(path)?;
-    if !(format == Format::Las || (format == Format::Pcd && output == CloudFormat::Pcd)) {
+    let wants_pcd = format == Format::Pcd && output == CloudFormat::Pcd;
+    let wants_e57 = format == Format::E57 && output == CloudFormat::E57;
+    if format != Format::Las && !wants_pcd && !wants_e57 {
         return Ok((read(path, opts)?, None));
     }
     let _span = tracing::debug_span!("read", path = %path.display()).entered();
-    let (mut cloud, mut original) = if format == Format::Las {
+    let (mut cloud, mut original) = if wants_e57 {
+        let (loaded, file) = e57::read(path, true)?;
+        let file = file.ok_or_else(|| Error::BadOutput {
+            path: path.to_path_buf(),
+            what: "the E57 reader kept no records for the E57 output".into(),
+        })?;
+        (loaded.cloud, Original::E57(file))
+    } else if wants_pcd {
+        let (loaded, pcd) = pcd::read_file(path, true)?;
+        let pcd = pcd.ok_or_else(|| Error::BadOutput {
+            path: path.to_path_buf(),
+            what: "the PCD reader kept no records for the PCD output".into(),
+        })?;
+        (loaded.cloud, Original::Pcd(pcd))
+    } else {
         let (loaded, lidar) = las::read_lidar(path, output.is_lidar())?;
         (loaded.cloud, Original::Lidar(lidar))
-    } else {
-        let (loaded, pcd) = pcd::read_file(path, true)?;
-        let Some(pcd) = pcd else {
-            return Err(Error::BadOutput {
-                path: path.to_path_buf(),
-                what: "the PCD reader kept no records for the PCD output".into(),
-            });
-        };
-        (loaded.cloud, Original::Pcd(pcd))
     };
     let keep: Vec<bool> = cloud.positions.iter().map(is_finite_point).collect();
     apply_non_finite(&mut cloud, opts.non_finite)?;
     if cloud.len() != keep.len() {
-        match &mut original {
-            Original::Lidar(l) => l.retain_mask(&keep),
-            Original::Pcd(p) => p.retain_mask(&keep),
-        }
+        original.retain_mask(&keep);
     }
     Ok((cloud, Some(original)))
 }
@@ -369,6 +404,45 @@ impl BBox {
     }
 }
 
+/// One scan of an input that records how it was scanned (E57 point clouds, organised PCD),
+/// as `sharpedge info` lists it.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ScanInfo {
+    pub name: String,
+    /// Points read from this scan (invalid records skipped).
+    pub points: usize,
+    /// The sensor position: the pose's translation.
+    pub position: [f64; 3],
+    /// The pose's rotation, a quaternion `[w, x, y, z]`.
+    pub rotation: [f64; 4],
+    /// `[rows, columns]` of a structured scan; `None` for an unstructured one.
+    pub grid: Option<[u32; 2]>,
+}
+
+impl ScanInfo {
+    /// The scans of a cloud's structure with their point counts (none without a structure).
+    fn of(cloud: &Cloud) -> Vec<ScanInfo> {
+        let Some(st) = &cloud.structure else {
+            return Vec::new();
+        };
+        let mut counts = vec![0usize; st.scans.len()];
+        for &s in &st.scan {
+            counts[s as usize] += 1;
+        }
+        st.scans
+            .iter()
+            .zip(counts)
+            .map(|(s, points)| ScanInfo {
+                name: s.name.clone(),
+                points,
+                position: s.pose.translation,
+                rotation: s.pose.rotation,
+                grid: s.grid_size,
+            })
+            .collect()
+    }
+}
+
 /// What `sharpedge info` prints (also as JSON).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct FileInfo {
@@ -395,6 +469,9 @@ pub struct FileInfo {
     pub double_precision: bool,
     /// Mean distance to the nearest neighbour (filled by the neighbours module; None here).
     pub mean_spacing: Option<f64>,
+    /// The scans, for inputs that record them (E57, organised PCD); empty otherwise.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub scans: Vec<ScanInfo>,
 }
 
 impl std::fmt::Display for FileInfo {
@@ -430,6 +507,23 @@ impl std::fmt::Display for FileInfo {
                 .map(|e| format!("{} {}", e.name, e.count))
                 .collect();
             writeln!(f, "not read:    {}", els.join(", "))?;
+        }
+        if !self.scans.is_empty() {
+            writeln!(f, "scans:       {}", self.scans.len())?;
+        }
+        for (i, s) in self.scans.iter().enumerate() {
+            let [x, y, z] = s.position;
+            let [qw, qx, qy, qz] = s.rotation;
+            write!(
+                f,
+                "  scan {i} {:?}: {} points, sensor at ({x}, {y}, {z}), rotation \
+                 (w {qw}, x {qx}, y {qy}, z {qz}), ",
+                s.name, s.points
+            )?;
+            match s.grid {
+                Some([r, c]) => writeln!(f, "structured {r} rows x {c} columns")?,
+                None => writeln!(f, "unstructured")?,
+            }
         }
         match &self.bbox {
             Some(b) => {
@@ -495,6 +589,7 @@ pub fn describe(path: &Path) -> Result<FileInfo> {
         duplicates: finite.len() - distinct.len(),
         // Over distinct finite positions; a subsample keeps `info` quick on big files.
         mean_spacing: crate::neighbours::mean_spacing_of(&distinct, &finite, 100_000),
+        scans: ScanInfo::of(cloud),
     })
 }
 
