@@ -383,12 +383,19 @@ pub fn process(cloud: Cloud, settings: &Settings, clock: &mut impl LapClock) -> 
     })
 }
 
-/// The sensor positions: `input.sensors` when given, else the scans' origins the file
-/// records (an organised PCD's VIEWPOINT, E57 scan poses).
+/// The sensor positions: `input.sensors` when given, else the origins of the gridded scans
+/// the file records (an organised PCD's VIEWPOINT, a structured E57 scan's pose: a grid of
+/// rays is in its sensor's frame by construction; an unstructured scan's pose need not be
+/// where a scanner stood).
 fn sensors(cloud: &Cloud, settings: &Settings) -> Vec<[f64; 3]> {
     match &cloud.structure {
         Some(s) if settings.input.sensors.is_empty() => {
-            let mut v: Vec<[f64; 3]> = s.scans.iter().map(|sc| sc.pose.translation).collect();
+            let mut v: Vec<[f64; 3]> = s
+                .scans
+                .iter()
+                .filter(|sc| sc.grid_size.is_some())
+                .map(|sc| sc.pose.translation)
+                .collect();
             v.dedup();
             v
         }

@@ -218,9 +218,24 @@ fn two_scans_round_trip_through_the_binary() {
     };
     run_to("merged.ply", "out_ply", &[]);
     run_to("scan.e57", "out_e57_ply", &["--format", "ply"]);
+    // The same edges and corners; their convex flags aside: the gridded scan's pose is taken
+    // as its sensor (a grid of rays is in its sensor's frame), and this synthetic scan's pose
+    // is not where a scanner saw its points from, so the sensor votes differ from the PLY's
+    // (which has no sensor).
+    let without_convexity = |mut v: serde_json::Value| {
+        for e in v["edges"].as_array_mut().unwrap() {
+            let e = e.as_object_mut().unwrap();
+            e.remove("convex");
+            e.remove("convex_votes");
+        }
+        v
+    };
     let merged_edges = edges_of(&c.path().join("out_ply"));
     assert!(merged_edges["edges"].as_array().unwrap().len() >= 12);
-    assert_eq!(merged_edges, edges_of(&c.path().join("out_e57_ply")));
+    assert_eq!(
+        without_convexity(merged_edges.clone()),
+        without_convexity(edges_of(&c.path().join("out_e57_ply")))
+    );
 
     // Auto: E57 out.
     c.run("scan.e57", &[]).assert_ok();
@@ -232,7 +247,10 @@ fn two_scans_round_trip_through_the_binary() {
         std::fs::copy(&input, Path::new(&keep).join("two_scans.e57")).unwrap();
         std::fs::copy(&out_e57, Path::new(&keep).join("two_scans_rectified.e57")).unwrap();
     }
-    assert_eq!(merged_edges, edges_of(&c.out()));
+    assert_eq!(
+        without_convexity(merged_edges),
+        without_convexity(edges_of(&c.out()))
+    );
     let moved_count = report(&c.out())["counts"]["moved"].as_u64().unwrap();
 
     // Read back with the e57 crate: same scans, poses, prototypes, records.

@@ -189,8 +189,8 @@ pub fn is_jump(p: [f64; 3], q: [f64; 3], origin: [f64; 3], slope: f64) -> bool {
     (ra - rb).abs() > slope * lateral
 }
 
-/// Where the sensor stood for a run's points: their scan when the cloud records scans, else
-/// the one configured sensor; `None` when neither tells (several sensors and no scan per
+/// Where the sensor stood for a run's points: their scan's origin when the cloud records
+/// scans and theirs is gridded, else the one configured sensor; `None` when neither tells (several sensors and no scan per
 /// point), or when more than [`OTHER_SCANS`] of the points come from other scans than the
 /// most common one: where scans overlap, what one scan could not see another did, and
 /// nothing there is the border of a single view.
@@ -209,8 +209,14 @@ pub fn sensor_of(
             }
             let best = (0..count.len()).max_by_key(|&k| (count[k], std::cmp::Reverse(k)))?;
             let total: usize = count.iter().sum();
-            (count[best] > 0 && (total - count[best]) as f64 <= OTHER_SCANS * total as f64)
-                .then(|| s.scans[best].pose.translation)
+            let single = (total - count[best]) as f64 <= OTHER_SCANS * total as f64;
+            // A gridded scan is in its sensor's frame; an unstructured scan's pose need not be
+            // where a scanner stood: the configured sensor then, if one.
+            match s.scans[best].grid_size {
+                _ if count[best] == 0 || !single => None,
+                Some(_) => Some(s.scans[best].pose.translation),
+                None => (sensors.len() == 1).then(|| sensors[0]),
+            }
         }
         _ => (sensors.len() == 1).then(|| sensors[0]),
     }
@@ -246,11 +252,7 @@ pub fn is_border(
     if away as f64 <= BORDER_SHARE * slabs as f64 {
         return None;
     }
-    let on = run_points
-        .iter()
-        .filter(|&&p| jump.get(p as usize).copied().unwrap_or(false))
-        .count();
-    if !run_points.is_empty() && on as f64 > BORDER_SHARE * run_points.len() as f64 {
+    if let Some(on) = mostly_by_jumps(run_points, jump) {
         return Some(format!(
             "an occlusion boundary: {on} of its {} points lie by a depth jump of the scan's \
              grid (a silhouette against what lies behind it)",
@@ -270,6 +272,15 @@ pub fn is_border(
     })
 }
 
+/// How many of `points` lie by a depth jump, when more than [`BORDER_SHARE`] of them do.
+fn mostly_by_jumps(points: &[u32], jump: &[bool]) -> Option<usize> {
+    let on = points
+        .iter()
+        .filter(|&&p| jump.get(p as usize).copied().unwrap_or(false))
+        .count();
+    (!points.is_empty() && on as f64 > BORDER_SHARE * points.len() as f64).then_some(on)
+}
+
 /// Why a planar face is no face of the part, or `None`: seen edge-on from `sensor` (its
 /// normal beyond [`MAX_INCIDENCE_DEG`] of the ray to its centroid: a veil between a
 /// silhouette and the background is flat enough to grow as a face), or most of its points by
@@ -280,11 +291,7 @@ pub fn is_border_face(
     jump: &[bool],
     sensor: Option<[f64; 3]>,
 ) -> Option<String> {
-    let on = points
-        .iter()
-        .filter(|&&p| jump.get(p as usize).copied().unwrap_or(false))
-        .count();
-    if !points.is_empty() && on as f64 > BORDER_SHARE * points.len() as f64 {
+    if let Some(on) = mostly_by_jumps(points, jump) {
         return Some(format!(
             "{on} of its {} points lie by a depth jump",
             points.len()
@@ -430,6 +437,13 @@ mod tests {
             scan: vec![0, 1, 1, 0],
             grid: Vec::new(),
         };
+        // Unstructured scans: their poses need not be where a scanner stood.
+        assert_eq!(sensor_of(&[1, 2], Some(&s), &[]), None);
+        assert_eq!(sensor_of(&[1, 2], Some(&s), &[[5.0; 3]]), Some([5.0; 3]));
+        let mut s = s;
+        for sc in &mut s.scans {
+            sc.grid_size = Some([2, 2]);
+        }
         assert_eq!(sensor_of(&[1, 2], Some(&s), &[]), Some([0.0, 2.0, 0.0]));
         assert_eq!(sensor_of(&[0, 3], Some(&s), &[]), Some([1.0, 0.0, 0.0]));
         // Seen from both scans (a third from the other): no single view's border.
