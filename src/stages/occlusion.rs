@@ -38,6 +38,11 @@ pub const JUMP_REACH: u32 = 3;
 /// be judged from that scan's sensor (see [`sensor_of`]).
 pub const OTHER_SCANS: f64 = 0.2;
 
+/// A scan's grid is walked for depth jumps when it has at most this many cells per point of
+/// the scan (plus 65,536): an organised depth frame has 1–2 (its NaN slots), a terrestrial
+/// scan's grid a little over one.
+pub const MAX_CELLS_PER_POINT: usize = 4;
+
 /// Share of a run's points (or of an edge's slabs) on an occlusion boundary that makes the
 /// whole edge one.
 const BORDER_SHARE: f64 = 0.5;
@@ -52,12 +57,26 @@ pub fn depth_jumps(positions: &[[f64; 3]], structure: Option<&ScanStructure>) ->
         return jump;
     };
     let slope = MAX_INCIDENCE_DEG.to_radians().tan();
+    let mut points_of = vec![0usize; s.scans.len()];
+    for &k in &s.scan {
+        if let Some(c) = points_of.get_mut(k as usize) {
+            *c += 1;
+        }
+    }
     for (k, scan) in s.scans.iter().enumerate() {
         let Some([rows, cols]) = scan.grid_size else {
             continue;
         };
         let (rows, cols) = (rows as usize, cols as usize);
-        let Some(slots) = rows.checked_mul(cols) else {
+        // The grid's arrays cost a few bytes a cell: a grid far larger than its points (a
+        // file's row or column index far beyond the others) is not walked.
+        let bound = MAX_CELLS_PER_POINT * points_of[k] + 65_536;
+        let Some(slots) = rows.checked_mul(cols).filter(|&c| c <= bound) else {
+            tracing::debug!(
+                "scan {k} ({}): a {rows} x {cols} grid for {} points; no depth jumps looked for",
+                scan.name,
+                points_of[k]
+            );
             continue;
         };
         let origin = scan.pose.translation;
@@ -362,6 +381,17 @@ mod tests {
         assert!(depth_jumps(&flat, Some(&s)).iter().all(|&m| !m));
         // No grid, no marks.
         assert!(depth_jumps(&p, None).iter().all(|&m| !m));
+    }
+
+    #[test]
+    fn a_grid_far_larger_than_its_points_is_not_walked() {
+        // A file's row index of a million for one of 400 points: 10^6 x 20 cells would be
+        // 20 million cells for 400 points; a trillion-cell grid must not be allocated.
+        let (p, mut s) = frame();
+        s.scans[0].grid_size = Some([1 << 20, 1 << 20]);
+        assert!(depth_jumps(&p, Some(&s)).iter().all(|&m| !m));
+        s.scans[0].grid_size = Some([1_000_000, 20]);
+        assert!(depth_jumps(&p, Some(&s)).iter().all(|&m| !m));
     }
 
     #[test]
