@@ -57,10 +57,11 @@ pub fn depth_jumps(positions: &[[f64; 3]], structure: Option<&ScanStructure>) ->
         return jump;
     };
     let slope = MAX_INCIDENCE_DEG.to_radians().tan();
-    let mut points_of = vec![0usize; s.scans.len()];
-    for &k in &s.scan {
-        if let Some(c) = points_of.get_mut(k as usize) {
-            *c += 1;
+    // The points of each scan, in one pass (a file of many scans walks the cloud once).
+    let mut points_of: Vec<Vec<u32>> = vec![Vec::new(); s.scans.len()];
+    for (i, &k) in s.scan.iter().enumerate() {
+        if let Some(v) = points_of.get_mut(k as usize) {
+            v.push(i as u32);
         }
     }
     for (k, scan) in s.scans.iter().enumerate() {
@@ -70,22 +71,22 @@ pub fn depth_jumps(positions: &[[f64; 3]], structure: Option<&ScanStructure>) ->
         let (rows, cols) = (rows as usize, cols as usize);
         // The grid's arrays cost a few bytes a cell: a grid far larger than its points (a
         // file's row or column index far beyond the others) is not walked.
-        let bound = MAX_CELLS_PER_POINT * points_of[k] + 65_536;
+        let bound = MAX_CELLS_PER_POINT * points_of[k].len() + 65_536;
         let Some(slots) = rows.checked_mul(cols).filter(|&c| c <= bound) else {
             tracing::debug!(
                 "scan {k} ({}): a {rows} x {cols} grid for {} points; no depth jumps looked for",
                 scan.name,
-                points_of[k]
+                points_of[k].len()
             );
             continue;
         };
         let origin = scan.pose.translation;
         // Point id in each cell of this scan's grid (u32::MAX: no point).
         let mut cell = vec![u32::MAX; slots];
-        for i in 0..n {
-            let [r, c] = s.grid[i];
-            if s.scan[i] as usize == k && (r as usize) < rows && (c as usize) < cols {
-                cell[r as usize * cols + c as usize] = i as u32;
+        for &i in &points_of[k] {
+            let [r, c] = s.grid[i as usize];
+            if (r as usize) < rows && (c as usize) < cols {
+                cell[r as usize * cols + c as usize] = i;
             }
         }
         let at = |r: usize, c: usize, dr: isize, dc: isize| -> Option<usize> {
