@@ -830,6 +830,7 @@ mod tests {
         let pts = box_surface(40.0, 30.0, 20.0, h);
         let scale = Scale {
             spacing: h,
+            pitch: h,
             noise: 0.01,
             radius: 4.0 * h,
         };

@@ -350,6 +350,7 @@ mod tests {
             let noise = measured(&pts, &params).1.noise;
             let scale = Scale {
                 spacing: 1.0,
+                pitch: 1.0,
                 noise,
                 radius: (4.0f64).max(6.0 * noise),
             };
@@ -399,6 +400,7 @@ mod tests {
             pts.len(),
             Scale {
                 spacing: 1.0,
+                pitch: 1.0,
                 noise: 0.0,
                 radius: 4.0,
             },

@@ -76,7 +76,7 @@ pub fn rectify(
     // Lengths in each edge's own scale (see `EdgeFit::scale`). A point's position along its
     // face is itself noisy by about σ: a fillet point near the tangent reads as farther out.
     let max_move_of = |e: &EdgeFit| params.max_move * e.scale.radius;
-    let zone_margin_of = |e: &EdgeFit| params.zone_margin * e.scale.spacing + e.scale.noise;
+    let zone_margin_of = |e: &EdgeFit| params.zone_margin * e.scale.pitch + e.scale.noise;
     // Mean face traces per edge: a straight edge's faces are the same along it, and the mean
     // over slabs is far steadier than one slab's local fit.
     let mut faces_of: Vec<Option<[[f64; 3]; 2]>> = vec![None; edges.len()];
@@ -218,7 +218,7 @@ pub fn rectify_plane_edges(
         let seg = sub(e.end, e.start);
         let length = norm(seg);
         let sc = e.scale;
-        if length <= 2.0 * sc.radius || sc.spacing <= 0.0 {
+        if length <= 2.0 * sc.radius || sc.pitch <= 0.0 {
             continue;
         }
         let d = seg.map(|x| x / length);
@@ -313,19 +313,18 @@ fn plane_edge_zone(
     sc: &Scale,
     params: &RectifyParams,
 ) -> Option<f64> {
-    let off_limit = OFF_FACE_SIGMAS * sc.noise + 0.05 * sc.spacing;
-    let bins = ((2.0 * sc.radius) / (ZONE_BIN * sc.spacing)).ceil() as usize + 1;
+    let off_limit = OFF_FACE_SIGMAS * sc.noise + 0.05 * sc.pitch;
+    let bins = ((2.0 * sc.radius) / (ZONE_BIN * sc.pitch)).ceil() as usize + 1;
     let mut count = vec![[0usize; 2]; bins];
     for x in near {
-        let b = ((x.1 / (ZONE_BIN * sc.spacing)) as usize).min(bins - 1);
+        let b = ((x.1 / (ZONE_BIN * sc.pitch)) as usize).min(bins - 1);
         count[b][0] += 1;
         count[b][1] += usize::from(x.3 > off_limit);
     }
     let end = count
         .iter()
         .position(|c| (c[1] as f64) < ZONE_OFF_SHARE * c[0] as f64)?;
-    (end > 0)
-        .then_some(end as f64 * ZONE_BIN * sc.spacing + params.zone_margin * sc.spacing + sc.noise)
+    (end > 0).then_some(end as f64 * ZONE_BIN * sc.pitch + params.zone_margin * sc.pitch + sc.noise)
 }
 
 /// Moves point `i` (at `p`) onto the nearest of a corner's face `planes` (a point on each,
