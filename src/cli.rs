@@ -238,10 +238,16 @@ pub struct BenchArgs {
     pub points: Option<usize>,
     /// Run N random parts under random scan settings instead of the suite: the parts and the
     /// settings (points log-uniform from 30,000 to --points, noise 0..0.3 h, edge rounding
-    /// 0..2 h, a random rotation) are drawn from --seed; each case prints its own seed and the
-    /// `sharpedge synth` command that makes its scan alone, and a summary row aggregates them.
+    /// 0..2 h, a random rotation, a sampling pattern: uniform, scan lines 1-10 h apart,
+    /// structured-light grid or views, sometimes a density gradient or incidence noise) are
+    /// drawn from --seed; each case prints its own seed and the `sharpedge synth` command that
+    /// makes its scan alone, and a summary row aggregates them.
     #[arg(long, value_name = "N", conflicts_with_all = ["cases", "patterns", "cad"])]
     pub random: Option<usize>,
+    /// With --random: scan every part uniformly (the same parts, points, noise and rounding as
+    /// without it; no pattern, gradient or incidence noise drawn).
+    #[arg(long, requires = "random")]
+    pub uniform: bool,
     /// Instead of the suite, issue 17's pattern check: box, L-block and octagonal prism each
     /// scanned uniformly, in scan lines 3 and 10 spacings apart, as a structured-light grid,
     /// from 3 overlapping views, from one view and with the density falling 4x, scored with
@@ -618,6 +624,7 @@ fn bench(_cli: &Cli, a: &BenchArgs) -> anyhow::Result<()> {
         config: a.config.clone(),
         data: a.data.clone().or_else(sharpedge::bench::default_data_dir),
         random: a.random,
+        random_patterns: !a.uniform,
         patterns: a.patterns,
         cad: a.cad,
         settings,

@@ -410,9 +410,10 @@ fn issue4_cad_models_pass_every_threshold() {
     }
 }
 
-/// `bench --random 3`: three random parts under drawn scan settings; the JSON carries each
-/// case's seed, draw and reproduce command, the summary aggregates them, and the printed
-/// command makes exactly the case's scan.
+/// `bench --random 3 --uniform`: three random parts under drawn scan settings, scanned
+/// uniformly (the whole part seen); the JSON carries each case's seed, draw and reproduce
+/// command, the summary aggregates them, and the printed command makes exactly the case's
+/// scan.
 #[test]
 fn three_random_parts_report_their_draws_a_summary_and_reproduce_alone() {
     let dir = tempfile::tempdir().unwrap();
@@ -426,6 +427,7 @@ fn three_random_parts_report_their_draws_a_summary_and_reproduce_alone() {
             "2",
             "--threads",
             "2",
+            "--uniform",
         ],
         dir.path(),
         "r.json",
@@ -519,6 +521,62 @@ fn three_random_parts_report_their_draws_a_summary_and_reproduce_alone() {
     assert_eq!(truth["points"], cases[0]["points"]);
     assert_eq!(truth["part"], "random");
     assert_eq!(truth["random"], cases[0]["part"]);
+}
+
+/// `bench --random` draws a sampling pattern per case (issue 17 item 7): the drawn patterns
+/// are in the JSON, and the reproduce command of a case scanned in a pattern makes exactly
+/// its scan.
+#[test]
+fn random_parts_are_scanned_in_drawn_patterns_and_reproduce_alone() {
+    let dir = tempfile::tempdir().unwrap();
+    let (_, j) = bench_ok(
+        &[
+            "--random",
+            "8",
+            "--points",
+            "30000",
+            "--seed",
+            "5",
+            "--threads",
+            "2",
+        ],
+        dir.path(),
+        "r.json",
+    );
+    let cases = j["cases"].as_array().unwrap();
+    let patterned: Vec<&Value> = cases
+        .iter()
+        .filter(|c| {
+            // A uniform scan has no `scan` in its params (see SynthParams::scan).
+            let p = &c["params"]["scan"]["pattern"];
+            p.is_string() && p != "uniform"
+        })
+        .collect();
+    assert!(
+        !patterned.is_empty(),
+        "8 draws at 60 % non-uniform: {:?}",
+        cases
+            .iter()
+            .map(|c| c["params"]["scan"]["pattern"].clone())
+            .collect::<Vec<_>>()
+    );
+    let c = patterned[0];
+    let pattern = c["params"]["scan"]["pattern"].as_str().unwrap();
+    let cmd = c["reproduce"].as_str().unwrap();
+    assert!(cmd.contains(&format!("--pattern {pattern}")), "{cmd}");
+    let args: Vec<&str> = cmd.split(' ').skip(1).collect();
+    let made = Command::new(env!("CARGO_BIN_EXE_sharpedge"))
+        .args(&args)
+        .current_dir(dir.path())
+        .output()
+        .unwrap();
+    assert!(
+        made.status.success(),
+        "{}",
+        String::from_utf8_lossy(&made.stderr)
+    );
+    let truth = read_json(&dir.path().join("case.truth.json"));
+    assert_eq!(truth["points"], c["points"], "{cmd}");
 }
 
 #[test]

@@ -631,6 +631,8 @@ pub struct BenchOptions {
     /// Run this many random parts (module [`random`]) instead of the suite; `points` is then
     /// the cap of their drawn point counts.
     pub random: Option<usize>,
+    /// Random cases draw their sampling pattern (false: every one uniform).
+    pub random_patterns: bool,
     /// Run the sampling-pattern check instead (module [`patterns`]).
     pub patterns: bool,
     /// Run the CAD check instead (module [`patterns`]; needs `data`).
@@ -675,7 +677,10 @@ pub fn run(opts: &BenchOptions) -> Result<BenchReport> {
         });
     }
     let (cases, skipped) = match (opts.random, opts.patterns, opts.cad) {
-        (Some(n), _, _) => (random::cases(n, opts.seed, opts.points), Vec::new()),
+        (Some(n), _, _) => (
+            random::cases(n, opts.seed, opts.points, opts.random_patterns),
+            Vec::new(),
+        ),
         (None, true, _) => (patterns::cases(opts.points, opts.seed), Vec::new()),
         (None, false, true) => patterns::cad_cases(opts.points, opts.seed, opts.data.as_deref()),
         (None, false, false) => suite(

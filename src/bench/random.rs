@@ -14,8 +14,14 @@
 //!   spacings (halved until the part allows it: a short chamfer edge limits the corner
 //!   blends, [`generate`]);
 //! - a uniformly random rotation;
-//! - the sampling pattern: uniform (the only one this simulator has; a pattern drawn from the
-//!   same stream belongs in [`draw`]).
+//! - the sampling pattern (drawn after the values above, so a case's part, points, noise and
+//!   rounding do not depend on whether patterns are drawn; `--uniform` keeps every case
+//!   uniform): uniform 40 %, scan lines 25 % (gap log-uniform from 1 to 10 along-line
+//!   spacings, cut direction from the case seed), structured-light grid 15 % and views by
+//!   visibility 20 % (1 view in 3 of 5 cases, else 2 or 3 overlapping views with 0.2 h
+//!   misregistration; sensors from the case seed); independently, in 3 cases of 10 a density
+//!   gradient of ratio 1.5–4 across the part, and in 3 of 10 noise growing with the
+//!   incidence angle (capped at 4x).
 
 use rand::rngs::SmallRng;
 use rand::{RngExt, SeedableRng};
@@ -24,7 +30,7 @@ use serde::Serialize;
 use super::{Case, CaseResult, Kind};
 use crate::error::{Error, Result};
 use crate::synth::geom::derive;
-use crate::synth::{self, Part, Sampling, Scan, SynthParams};
+use crate::synth::{self, Part, Pattern, Sampling, Scan, ScanPattern, SynthParams};
 
 /// Fewest points of a random case (unless the cap is lower).
 pub const MIN_POINTS: usize = 30_000;
@@ -42,8 +48,14 @@ pub fn case_seed(seed: u64, index: usize) -> u64 {
     derive(seed, &[TAG_CASE, index as u64])
 }
 
-/// The synth parameters of random case `index`: every scan setting is drawn here.
-pub fn draw(seed: u64, index: usize, cap: usize) -> SynthParams {
+/// Longest gap between scan lines drawn, in along-line spacings.
+pub const MAX_LINE_GAP: f64 = 10.0;
+/// Largest density ratio drawn.
+pub const MAX_DENSITY_RATIO: f64 = 4.0;
+
+/// The synth parameters of random case `index`: every scan setting is drawn here; `patterns`
+/// false keeps the scan uniform (the draws before patterns existed, value for value).
+pub fn draw(seed: u64, index: usize, cap: usize, patterns: bool) -> SynthParams {
     let case = case_seed(seed, index);
     let mut rng = SmallRng::seed_from_u64(derive(case, &[TAG_SCAN]));
     let lo = MIN_POINTS.min(cap) as f64;
@@ -52,6 +64,11 @@ pub fn draw(seed: u64, index: usize, cap: usize) -> SynthParams {
     let points = (lo.ln() + u * (hi.ln() - lo.ln())).exp().round() as usize;
     let noise = rng.random_range(0.0..=MAX_NOISE);
     let round = rng.random_range(0.0..=MAX_ROUND);
+    let scan = if patterns {
+        draw_pattern(&mut rng)
+    } else {
+        ScanPattern::default()
+    };
     SynthParams {
         part: Part::Random,
         sampling: Sampling::Points(points.clamp(1, cap.max(1))),
@@ -59,15 +76,52 @@ pub fn draw(seed: u64, index: usize, cap: usize) -> SynthParams {
         round,
         rotate: true,
         seed: case,
+        scan,
         ..SynthParams::default()
     }
 }
 
+/// A sampling pattern with the shares of the module comment.
+fn draw_pattern(rng: &mut SmallRng) -> ScanPattern {
+    let mut scan = ScanPattern::default();
+    let u: f64 = rng.random();
+    scan.pattern = if u < 0.40 {
+        Pattern::Uniform
+    } else if u < 0.65 {
+        Pattern::Lines
+    } else if u < 0.80 {
+        Pattern::Grid
+    } else {
+        Pattern::View
+    };
+    let gap_u: f64 = rng.random();
+    if scan.pattern == Pattern::Lines {
+        scan.line_gap = MAX_LINE_GAP.powf(gap_u);
+    }
+    let views_u: f64 = rng.random();
+    if scan.pattern.has_views() {
+        scan.views = if views_u < 0.6 {
+            1
+        } else if views_u < 0.8 {
+            2
+        } else {
+            3
+        };
+    }
+    let (density_u, ratio_u): (f64, f64) = (rng.random(), rng.random());
+    if density_u < 0.3 {
+        scan.density_ratio = 1.5 + ratio_u * (MAX_DENSITY_RATIO - 1.5);
+    }
+    let incidence_u: f64 = rng.random();
+    scan.incidence_noise = incidence_u < 0.3;
+    scan
+}
+
 /// The N random cases of a bench run.
-pub fn cases(n: usize, seed: u64, cap: usize) -> Vec<Case> {
+pub fn cases(n: usize, seed: u64, cap: usize, patterns: bool) -> Vec<Case> {
     (0..n)
         .map(|i| {
-            let params = draw(seed, i, cap);
+            let params = draw(seed, i, cap, patterns);
             Case {
                 name: format!("r{i:03}"),
                 description: format!("random part, seed {}", params.seed),
@@ -100,8 +154,25 @@ pub fn reproduce(p: &SynthParams) -> String {
         Sampling::Points(n) => format!("--points {n}"),
         Sampling::Spacing(h) => format!("--spacing {h}"),
     };
+    let s = &p.scan;
+    let mut scan = String::new();
+    if s.pattern != Pattern::Uniform {
+        scan += &format!(" --pattern {}", s.pattern.name());
+    }
+    if s.pattern == Pattern::Lines {
+        scan += &format!(" --line-gap {}", s.line_gap);
+    }
+    if s.pattern.has_views() && s.views > 1 {
+        scan += &format!(" --views {}", s.views);
+    }
+    if s.density_ratio != 1.0 {
+        scan += &format!(" --density-ratio {}", s.density_ratio);
+    }
+    if s.incidence_noise {
+        scan += " --incidence-noise";
+    }
     format!(
-        "sharpedge synth --part random --seed {} {points} --noise {} --round {}{} --out case.ply",
+        "sharpedge synth --part random --seed {} {points} --noise {} --round {}{}{scan} --out case.ply",
         p.seed,
         p.noise,
         p.round,
@@ -243,25 +314,41 @@ mod tests {
     #[test]
     fn draws_stay_in_their_ranges_and_repeat() {
         for i in 0..200 {
-            let p = draw(3, i, 500_000);
+            let p = draw(3, i, 500_000, true);
             let Sampling::Points(n) = p.sampling else {
                 panic!("points expected")
             };
             assert!((MIN_POINTS..=500_000).contains(&n), "{n}");
             assert!((0.0..=MAX_NOISE).contains(&p.noise));
             assert!((0.0..=MAX_ROUND).contains(&p.round));
-            assert_eq!(p, draw(3, i, 500_000));
+            assert_eq!(p, draw(3, i, 500_000, true));
+            p.scan.validate().unwrap();
+            assert!((1.0..=MAX_LINE_GAP).contains(&p.scan.line_gap));
+            assert!((1.0..=MAX_DENSITY_RATIO).contains(&p.scan.density_ratio));
+            let uniform = draw(3, i, 500_000, false);
+            assert!(uniform.scan.is_default());
+            assert_eq!(
+                SynthParams {
+                    scan: ScanPattern::default(),
+                    ..p.clone()
+                },
+                uniform,
+                "drawing a pattern changes nothing else"
+            );
         }
-        let Sampling::Points(n) = draw(3, 0, 20_000).sampling else {
+        let Sampling::Points(n) = draw(3, 0, 20_000, true).sampling else {
             panic!()
         };
         assert_eq!(n, 20_000, "a cap below the minimum is used as is");
-        assert_ne!(draw(1, 0, 500_000).seed, draw(2, 0, 500_000).seed);
+        assert_ne!(
+            draw(1, 0, 500_000, true).seed,
+            draw(2, 0, 500_000, true).seed
+        );
     }
 
     #[test]
     fn the_reproduce_command_carries_every_drawn_value() {
-        let p = draw(1, 4, 100_000);
+        let p = draw(1, 4, 100_000, true);
         let cmd = reproduce(&p);
         assert!(cmd.contains(&format!("--seed {}", p.seed)), "{cmd}");
         assert!(cmd.contains(&format!("--noise {}", p.noise)), "{cmd}");
@@ -281,5 +368,48 @@ mod tests {
             p.noise.to_bits(),
             "the printed value is exact"
         );
+    }
+
+    #[test]
+    fn every_pattern_is_drawn_and_the_command_names_it() {
+        let mut seen = std::collections::BTreeMap::new();
+        let (mut gradients, mut incidence) = (0, 0);
+        for i in 0..400 {
+            let p = draw(7, i, 500_000, true);
+            *seen.entry(p.scan.pattern.name()).or_insert(0) += 1;
+            gradients += usize::from(p.scan.density_ratio > 1.0);
+            incidence += usize::from(p.scan.incidence_noise);
+            let cmd = reproduce(&p);
+            if p.scan.pattern != Pattern::Uniform {
+                assert!(
+                    cmd.contains(&format!("--pattern {}", p.scan.pattern.name())),
+                    "{cmd}"
+                );
+            }
+            if p.scan.pattern == Pattern::Lines {
+                assert!(
+                    cmd.contains(&format!("--line-gap {}", p.scan.line_gap)),
+                    "{cmd}"
+                );
+            }
+            if p.scan.views > 1 {
+                assert!(cmd.contains(&format!("--views {}", p.scan.views)), "{cmd}");
+            }
+            assert_eq!(cmd.contains("--incidence-noise"), p.scan.incidence_noise);
+            assert_eq!(cmd.contains("--density-ratio"), p.scan.density_ratio > 1.0);
+        }
+        // Shares 40 / 25 / 15 / 20 %, gradient and incidence noise 30 % each: 400 draws land
+        // within a few standard deviations of them.
+        for (name, share) in [
+            ("uniform", 0.40),
+            ("lines", 0.25),
+            ("grid", 0.15),
+            ("view", 0.20),
+        ] {
+            let got = seen[name] as f64 / 400.0;
+            assert!((got - share).abs() < 0.08, "{name}: {got}");
+        }
+        assert!((80..=160).contains(&gradients), "{gradients}");
+        assert!((80..=160).contains(&incidence), "{incidence}");
     }
 }
