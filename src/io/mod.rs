@@ -25,10 +25,12 @@ pub mod mesh;
 
 mod crs;
 mod e57;
+mod e57_packets;
 mod geojson;
 mod las;
 mod las_check;
 mod las_write;
+mod lzf_stream;
 pub mod output_set;
 mod pcd;
 mod ply;
