@@ -239,7 +239,10 @@ fn a_big_compressed_body_reads_as_binary_and_ascii_do() {
         assert_eq!(stamp[i], (-(i as i64) * 1_000_000_007) as f64);
         assert_eq!(id[i], ((1u64 << 52) + (i / 3) as u64) as f64);
     }
-    assert_eq!(col(first, "ring"), &Column::U8((0..n).map(|i| (i % 32) as u8).collect()));
+    assert_eq!(
+        col(first, "ring"),
+        &Column::U8((0..n).map(|i| (i % 32) as u8).collect())
+    );
     assert_eq!(f64s("normal_2")[11], 2.0 * 0.125 - 2.0);
     for (what, c) in &got[1..] {
         assert_eq!(c.positions, first.positions, "{what}");
@@ -291,7 +294,11 @@ fn a_dropped_point_is_written_back_as_it_was() {
             panic!("no PcdFile");
         };
         assert_eq!(c.len(), 10, "{data}");
-        let moved: Vec<[f64; 3]> = c.positions.iter().map(|p| [p[0] + 1.0, p[1], p[2]]).collect();
+        let moved: Vec<[f64; 3]> = c
+            .positions
+            .iter()
+            .map(|p| [p[0] + 1.0, p[1], p[2]])
+            .collect();
         let out = dir.path().join(format!("{data}-out.pcd"));
         io::write_pcd(&out, &pcd, &moved, &vec![true; c.len()]).unwrap();
         let back = pcd_common::read(&out);
