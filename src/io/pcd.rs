@@ -20,13 +20,19 @@
 //! Decoder: own, not pcd-rs. pcd-rs 0.13's `DynReader` builds a `Vec<Field>` of `Vec`s per
 //! point: on the 10,000,000-point `x y z rgb` files of scripts/bench_read_pcd.sh (/dev/shm,
 //! release) it read `binary` in 10.5 s and `binary_compressed` in 6.9 s; this decoder reads
-//! them in 0.14–0.22 s and 0.56–0.71 s (binary PLY of the same points 0.15–0.22 s, PCL 1.13's
-//! loadPCDFile 0.36–0.40 s and 0.87–0.89 s). A `binary` body is read in chunks of about 1 MB
-//! and decoded while hot (no buffer of the whole file); a `binary_compressed` body is
-//! decompressed whole by the `lzf` crate (0.26 s of the 0.56 s: a decoder of our own copying
-//! runs with `extend_from_within` took 0.30 s, so the crate stays), then its field blocks are
-//! decoded. Every size in the header is checked against the file's length before anything is
-//! allocated, so a lying header gives an error, never an allocation the file cannot back.
+//! them in 0.14–0.22 s and (on a machine busy with other builds) 1.2–1.4 s, where binary PLY
+//! of the same points took 0.15–0.22 s (0.60-0.74 s in the busy run) and PCL 1.13's
+//! loadPCDFile 0.36–0.40 s and 0.87–0.89 s (2.8 s busy). A `binary` body is read in chunks of
+//! about 1 MB and decoded while hot (no buffer of the whole file). A `binary_compressed`
+//! body is read 1 MB at a time and decoded by our own LZF decoder (src/io/lzf_stream.rs;
+//! 0.65 s for the 160 MB body where the `lzf` crate takes 0.94 s, `examples/pcd_read lzf`)
+//! 256 KB at a time, each piece converted into the cloud's columns while it is in the cache,
+//! in a second thread while this one converts when the pool has two (slightly faster than
+//! one thread: medians of 5 busy runs 1.08 s against 1.14 s); no buffer of the whole body (peak
+//! 263 MB where the whole body made it 413 MB). For a PCD output (the records kept) the body
+//! is decompressed whole by the same decoder. Every size in the header is checked against
+//! the file's length before anything is allocated, so a lying header gives an error, never
+//! an allocation the file cannot back.
 
 use std::fmt::Write as _;
 use std::path::Path;
