@@ -13,12 +13,13 @@
 //! output. Here a literal run is copied as a fixed 8, 16 or 32 bytes and a back reference 4,
 //! 8 or 16 bytes at a time (past the end of the run, into slack the caller provides, later
 //! overwritten), into a window the caller reuses. Measured on the 160 MB body of the
-//! 10,000,000-point file of scripts/bench_read_pcd.sh (60 million tokens, best of 5 in one
-//! process, alternating, a busy machine): the crate 0.64-0.92 s, this decoder 0.37-0.40 s;
-//! a first version copying 32-byte literals and 8/16-byte references 0.46-0.64 s, one
-//! choosing between literal and reference bytes without a branch 0.50 s. Safe code only:
-//! every copy is a bounds-checked slice, and
-//! each token is checked before it is copied (its back reference within the output so far,
+//! 10,000,000-point file of scripts/bench_read_pcd.sh (60 million tokens) on a machine busy
+//! with other builds: `examples/pcd_read lzf` (both into a new buffer of the whole body,
+//! medians of 5, alternating) 0.65 s against the crate's 0.94 s; decoding into a buffer
+//! already mapped, best of 5, 0.37-0.40 s (a first version copying 32-byte literals and
+//! 8/16-byte references 0.46-0.64 s, one choosing between literal and reference bytes without
+//! a branch 0.50 s) against the crate's 0.64-0.92 s. Safe code only: every copy is a
+//! bounds-checked slice, and each token is checked before it is copied (its back reference within the output so far,
 //! its length within the declared size, its bytes within the input), so a hostile stream
 //! gives an error, never a read or write outside the buffers.
 
