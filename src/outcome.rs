@@ -242,7 +242,7 @@ pub fn plane_edge(id: usize, edge: &FaceEdge, convexity: &Convexity) -> EdgeOut 
         direction: d.map(|x| x / len.max(f64::MIN_POSITIVE)),
         points: edge.points,
         rms: 0.0,
-        corners: edge.corners.map(Some),
+        corners: edge.corners,
         convex: convexity.convex(),
         convex_votes: convexity.votes(),
         dihedral_deg: Some(traces_angle(&edge.traces)),

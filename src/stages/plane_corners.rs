@@ -45,9 +45,9 @@ const SEE_REACH: f64 = 2.5;
 /// users bring have edges whose faces turn by 20° (an interior angle of 160°); a face split
 /// in two turns by a few degrees at most. (Faceted curved surfaces, whose facets meet at
 /// creases of this size, are no planar faces: see `faces::folds`.)
-const MIN_FACE_ANGLE: f64 = 15.0;
+pub(crate) const MIN_FACE_ANGLE: f64 = 15.0;
 /// One edge candidate in this many names the faces it sees (see [`face_corners`]).
-const VOTE_STRIDE: usize = 2;
+pub(crate) const VOTE_STRIDE: usize = 2;
 /// A corner needs this many candidates that see its three faces.
 const MIN_SUPPORT: usize = 3;
 /// The three faces of a corner stand at least this far from one plane: |det(n1, n2, n3)|,
@@ -91,23 +91,7 @@ pub fn face_corners(
         .fold(
             || (Vec::new(), Vec::new()),
             |(mut out, mut seen): (Vec<Vote>, Vec<(u32, usize)>), &c| {
-                let i = c as usize;
-                seen.clear();
-                let reach = SEE_REACH * f64::from(scale.radius[i]);
-                grid.for_each_within(positions[i], reach, |j, _, _| {
-                    let l = faces.label[j as usize];
-                    if l == NO_FACE {
-                        return;
-                    }
-                    match seen.iter_mut().find(|s| s.0 == l) {
-                        Some(s) => s.1 += 1,
-                        None => seen.push((l, 1)),
-                    }
-                });
-                seen.retain(|s| s.1 >= SEE_POINTS);
-                seen.sort_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(&b.0)));
-                seen.truncate(6);
-                seen.sort_unstable_by_key(|s| s.0);
+                faces_seen(positions, grid, faces, scale, c, &mut seen);
                 for (a, x) in seen.iter().enumerate() {
                     for (b, y) in seen.iter().enumerate().skip(a + 1) {
                         for z in &seen[b + 1..] {
@@ -254,8 +238,37 @@ pub fn face_corners(
     kept
 }
 
+/// The faces edge candidate `c` sees (see [`SEE_POINTS`]), at most the six with the most
+/// points there, as (face, points) ascending by face, into `seen`.
+pub(crate) fn faces_seen(
+    positions: &[[f64; 3]],
+    grid: &Grid,
+    faces: &Faces,
+    scale: &LocalScale,
+    c: u32,
+    seen: &mut Vec<(u32, usize)>,
+) {
+    let i = c as usize;
+    seen.clear();
+    let reach = SEE_REACH * f64::from(scale.radius[i]);
+    grid.for_each_within(positions[i], reach, |j, _, _| {
+        let l = faces.label[j as usize];
+        if l == NO_FACE {
+            return;
+        }
+        match seen.iter_mut().find(|s| s.0 == l) {
+            Some(s) => s.1 += 1,
+            None => seen.push((l, 1)),
+        }
+    });
+    seen.retain(|s| s.1 >= SEE_POINTS);
+    seen.sort_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(&b.0)));
+    seen.truncate(6);
+    seen.sort_unstable_by_key(|s| s.0);
+}
+
 /// The scan follows a sharp edge, rounded by at most the widest rounding of a sharp edge
-/// (`edges::fillet_limit`), within this many spacings plus three noise sigmas: a rounding of
+/// (`edges::fillet_limit`), within this many pitches plus three noise sigmas: a rounding of
 /// radius ρ between faces at a dihedral angle θ keeps the scan ρ·(1/sin(θ/2) − 1) off their
 /// planes' intersection line.
 const HUG_SLACK: f64 = 0.5;
@@ -292,7 +305,7 @@ fn unfollowed_edge(
             }
         }
     });
-    let rounding = fillet_limit(edges, scale) * scale.spacing;
+    let rounding = fillet_limit(edges, scale);
     (0..3).find(|&k| {
         let (ia, ib) = ((k + 1) % 3, (k + 2) % 3);
         // Each face's normal turned away from the other face: the interior angle θ between
@@ -309,16 +322,50 @@ fn unfollowed_edge(
         if dot(d, planes[k].normal) * (side[k][ia] + side[k][ib]) < 0.0 {
             d = d.map(|x| -x);
         }
-        let cos_theta = (-dot(na, nb)).clamp(-1.0, 1.0);
-        let half = (0.5 * (1.0 - cos_theta)).sqrt().max(1e-3);
-        let gap = rounding * (1.0 / half - 1.0) + HUG_SLACK * scale.spacing + 3.0 * scale.noise;
+        let gap = hug_gap(rounding, -dot(na, nb), scale);
         !HUG_AT.iter().all(|&t| {
-            let q = [0, 1, 2].map(|m| corner[m] + d[m] * t * r);
-            let mut hit = false;
-            grid.for_each_within(q, gap, |_, _, _| hit = true);
-            hit
+            let q = axpy(corner, t * r, d);
+            hugs(grid, q, d, [&planes[ia], &planes[ib]], gap, scale.spacing)
         })
     })
+}
+
+/// How far from two planes' intersection line the scan of a sharp edge may stay: the widest
+/// rounding (`rounding`, a radius) between faces at the interior angle θ (`cos_theta`) keeps
+/// it `rounding · (1/sin(θ/2) − 1)` off the line, plus `HUG_SLACK` pitches and three noise
+/// sigmas.
+pub(crate) fn hug_gap(rounding: f64, cos_theta: f64, scale: &Scale) -> f64 {
+    let half = (0.5 * (1.0 - cos_theta.clamp(-1.0, 1.0))).sqrt().max(1e-3);
+    rounding * (1.0 / half - 1.0) + HUG_SLACK * scale.pitch + 3.0 * scale.noise
+}
+
+/// Whether the scan follows the intersection line of `planes` (through `q`, unit direction
+/// `d`) there: it has points within `gap + spacing` of the line, within `spacing` of `q`
+/// along it, and at most one in ten of them lies farther than `gap` from both planes. Scan
+/// lines may run along an edge a spacing apart and never come near the line itself; the
+/// points they put beside it lie on one face or the other. A fillet's or a chamfer's points
+/// there lie off both planes, and a rounding wider than a fillet's keeps the scan farther
+/// from the line than `gap + spacing` (no points at all).
+pub(crate) fn hugs(
+    grid: &Grid,
+    q: [f64; 3],
+    d: [f64; 3],
+    planes: [&Plane; 2],
+    gap: f64,
+    spacing: f64,
+) -> bool {
+    let base = planes.map(|p| p.distance(q));
+    let (mut near, mut off) = (0usize, 0usize);
+    grid.for_each_within(q, gap + spacing, |_, w, _| {
+        let along = dot(w, d);
+        if along.abs() > spacing {
+            return;
+        }
+        let [a, b] = [0, 1].map(|k| (base[k] + dot(planes[k].normal, w)).abs());
+        near += 1;
+        off += usize::from(a.min(b) > gap);
+    });
+    near > 0 && 10 * off <= near
 }
 
 /// The least-squares common point of planes (minimising the sum of squared distances), or
@@ -342,12 +389,15 @@ pub fn intersect(planes: &[Plane]) -> Option<[f64; 3]> {
     Some(add(origin, x))
 }
 
-/// A straight sharp edge between two plane corners: where two planar faces meet, from one
-/// corner of both to another.
+/// A straight sharp edge where two planar faces meet: from one plane corner of both to
+/// another (`face_edges`), or along a stretch the scan follows with a corner at neither,
+/// one or both ends (`pair_edges`).
 #[derive(Debug, Clone, PartialEq)]
 pub struct FaceEdge {
-    /// Indices into the plane corners.
-    pub corners: [usize; 2],
+    /// Indices into the plane corners (after `place_edges`: into the reported corners), at
+    /// `start` and `end`; `None` where the edge ends without a corner (a scan border, a
+    /// face's end).
+    pub corners: [Option<usize>; 2],
     pub faces: [u32; 2],
     pub start: [f64; 3],
     pub end: [f64; 3],
@@ -442,7 +492,7 @@ pub fn face_edges(
                 continue;
             };
             out.push(FaceEdge {
-                corners: [c0, c1],
+                corners: [Some(c0), Some(c1)],
                 faces: pair,
                 start: p0,
                 end: p1,
@@ -458,7 +508,7 @@ pub fn face_edges(
 /// The directions of faces `pair` away from their intersection line (direction `d`) at
 /// `at`: in each face's plane, perpendicular to `d`, towards the face's points within
 /// `reach` (`None` when a face has none there).
-fn traces(
+pub(crate) fn traces(
     positions: &[[f64; 3]],
     grid: &Grid,
     faces: &Faces,
@@ -556,9 +606,10 @@ pub fn place_corners(found: &[FaceCorner], corners: &mut Vec<CornerFit>) -> Vec<
 }
 
 /// Places the plane edges: a fitted straight edge along one (see [`overlaps`], within 1.5
-/// spacings) takes its exact line from corner to corner; the others are returned as edges of
-/// their own, their `corners` turned into indices of the reported corners (`corner_index`,
-/// from [`place_corners`]).
+/// spacings) takes its exact line, from corner to corner where the plane edge has corners
+/// (an end without one keeps the fitted end, moved onto the line); the others are returned
+/// as edges of their own, their `corners` turned into indices of the reported corners
+/// (`corner_index`, from [`place_corners`]).
 pub fn place_edges(
     edges: &[FaceEdge],
     found: &[FaceCorner],
@@ -567,20 +618,51 @@ pub fn place_edges(
 ) -> Vec<FaceEdge> {
     let mut own = Vec::new();
     for fe in edges {
-        let ends = fe.corners.map(|c| corner_index[c]);
-        let tolerance = 1.5 * found[fe.corners[0]].scale.spacing;
+        let ends = fe.corners.map(|c| c.map(|c| corner_index[c]));
+        let tolerance = 1.5 * fe.corners[0].map_or(fe.scale.spacing, |c| found[c].scale.spacing);
         let same = geometry.iter_mut().flatten().find(|g| {
             g.polyline.len() == 2
                 && overlaps(fe.start, fe.end, g.polyline[0], g.polyline[1], tolerance)
         });
         match same {
             Some(g) => {
-                if dot(sub(g.polyline[1], g.polyline[0]), sub(fe.end, fe.start)) >= 0.0 {
-                    g.polyline = vec![fe.start, fe.end];
-                    g.corners = [Some(ends[0]), Some(ends[1])];
+                let points = [fe.start, fe.end];
+                let along = sub(fe.end, fe.start);
+                let on_line = |p: [f64; 3]| {
+                    let l2 = dot(along, along);
+                    let t = if l2 > 0.0 {
+                        dot(sub(p, fe.start), along) / l2
+                    } else {
+                        0.0
+                    };
+                    axpy(fe.start, t, along)
+                };
+                // g's end e lies at the plane edge's end `k[e]`.
+                let k = if dot(sub(g.polyline[1], g.polyline[0]), along) >= 0.0 {
+                    [0, 1]
                 } else {
-                    g.polyline = vec![fe.end, fe.start];
-                    g.corners = [Some(ends[1]), Some(ends[0])];
+                    [1, 0]
+                };
+                for e in 0..2 {
+                    match ends[k[e]] {
+                        Some(c) => {
+                            g.polyline[e] = points[k[e]];
+                            g.corners[e] = Some(c);
+                        }
+                        // A fitted end at a corner stays there; an open one (a fragment's)
+                        // reaches as far as both faces follow the line, never shorter.
+                        None => {
+                            let fitted = on_line(g.polyline[e]);
+                            let outward = sub(fitted, g.polyline[1 - e]);
+                            g.polyline[e] = if g.corners[e].is_none()
+                                && dot(sub(points[k[e]], fitted), outward) > 0.0
+                            {
+                                points[k[e]]
+                            } else {
+                                fitted
+                            };
+                        }
+                    }
                 }
             }
             None => own.push(FaceEdge {

@@ -258,7 +258,7 @@ pub fn rectify_plane_edges(
         .iter()
         .enumerate()
         .filter(|(k, _)| zones[*k].is_some())
-        .flat_map(|(k, e)| e.corners.map(|c| (c, k)))
+        .flat_map(|(k, e)| e.corners.into_iter().flatten().map(move |c| (c, k)))
         .collect();
     at_corner.sort_unstable();
     for group in at_corner.chunk_by(|a, b| a.0 == b.0) {
@@ -272,7 +272,7 @@ pub fn rectify_plane_edges(
             })
             .collect();
         let first = &edges[incident[0]];
-        let corner = if group[0].0 == first.corners[0] {
+        let corner = if Some(group[0].0) == first.corners[0] {
             first.start
         } else {
             first.end
