@@ -25,6 +25,7 @@ use crate::stages::edges;
 use crate::stages::faces;
 use crate::stages::features::{self, Features, Scale};
 use crate::stages::occlusion;
+use crate::stages::pair_edges;
 use crate::stages::plane_corners;
 use crate::stages::rectify;
 use crate::stages::scale;
@@ -312,7 +313,21 @@ pub fn process(cloud: Cloud, settings: &Settings, clock: &mut impl LapClock) -> 
         &planar,
         &settings.edges,
     );
-    let plane_edges = plane_corners::face_edges(positions, &grid, &features, &planar, &plane_found);
+    let mut plane_edges =
+        plane_corners::face_edges(positions, &grid, &features, &planar, &plane_found);
+    let more = pair_edges::pair_edges(
+        positions,
+        &grid,
+        &features,
+        &local,
+        &planar,
+        &plane_found,
+        &plane_edges,
+        &settings.edges,
+    );
+    plane_edges.extend(more);
+    let mut plane_found = plane_found;
+    pair_edges::meeting_corners(&planar, &mut plane_found, &mut plane_edges);
     let corner_of_plane = plane_corners::place_corners(&plane_found, &mut corner_list);
     let mut geometry = corners::edge_geometry(&segments, &fits, &corner_list, &corner_of_vertex);
     let new_edges =

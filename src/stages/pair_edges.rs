@@ -1,0 +1,957 @@
+//! Edges from face pairs: where two planar faces meet along a stretch the scan follows, their
+//! planes' intersection line is a sharp edge there, whether or not a plane corner ends it.
+//!
+//! Inputs: positions, the neighbour `Grid`, the `Features` (candidate and outlier masks), the
+//! `LocalScale`, the planar `Faces`, the plane corners (`FaceCorner`), the edges between plane
+//! corners already found (`FaceEdge`, from `plane_corners::face_edges`) and `EdgeParams` (the
+//! widest rounding of a sharp edge). Output: more `FaceEdge`s, each with a plane corner at
+//! neither, one or both ends.
+//!
+//! Why: the edge stage fits slabs across each run of edge candidates; where the sampling
+//! leaves a slab few points of one face (scan lines running nearly along the edge, a
+//! structured-light grid seeing one face at a grazing angle, a view that sees a face only up
+//! to a scan border) or the faces turn by little (an interior angle of 160°), the slab fits
+//! fail or are judged no edge, and the plane corners only join corners whose three faces were
+//! all seen. Two planar faces rest on thousands of points whatever the sampling pattern, and
+//! where they meet the scan shows it: both faces reach the line and the scan hugs it.
+//!
+//! How: each edge candidate names the faces it sees (as for the plane corners); a pair of
+//! faces named together by `MIN_SUPPORT` candidates or more, whose planes turn by at least
+//! `plane_corners::MIN_FACE_ANGLE`, is walked along its planes' intersection line in steps
+//! of a spacing, over the stretch its candidates cover. A step is on the edge when both faces
+//! have points within `FACE_REACH` radii of it and the scan passes within the widest rounding
+//! of a sharp edge of the line there (`plane_corners::hugs`: a fillet or a chamfer between
+//! the faces leaves their line in the air). Runs of such steps, at least `MIN_LENGTH` radii
+//! long and not along an edge between plane corners already, are edges; an end within
+//! `SNAP` radii of a plane corner of both faces ends at that corner.
+
+use rayon::prelude::*;
+
+use crate::geometry::{add, axpy, cross, dot, norm, point_segment, scale as scale_by, sub};
+use crate::neighbours::Grid;
+use crate::stages::edges::{EdgeParams, fillet_limit};
+use crate::stages::faces::{Faces, NO_FACE};
+use crate::stages::features::{Features, LocalScale};
+use crate::stages::plane_corners::{
+    FaceCorner, FaceEdge, MIN_FACE_ANGLE, VOTE_STRIDE, faces_seen, hug_gap, hugs, intersect, traces,
+};
+
+/// A face pair named by a candidate (its id).
+type PairVote = ([u32; 2], u32);
+
+/// A pair of faces needs this many candidates that see both.
+const MIN_SUPPORT: usize = 6;
+/// Candidates farther than this many radii from the pair's line do not place its stretch.
+const ON_LINE: f64 = 2.0;
+/// Both faces have points within this many radii of a step on the edge.
+const FACE_REACH: f64 = 1.5;
+/// The shortest edge kept, in radii: shorter runs are the ends of edges that meet elsewhere
+/// (a face pair named around a corner) or noise.
+const MIN_LENGTH: f64 = 3.0;
+/// Steps off the edge over up to this many radii inside a run are a gap in the scan (noise
+/// growing at grazing incidence, a face's labels thinning out), not its end.
+const MAX_GAP: f64 = 1.0;
+/// An end within this many radii of a plane corner on both faces ends at the corner.
+const SNAP: f64 = 2.0;
+/// A stretch within this many spacings of an edge between plane corners of the same pair is
+/// that edge.
+const SAME_EDGE: f64 = 1.5;
+/// Each face of an edge whose faces turn by φ (radians) reaches at least this many noise
+/// sigmas over φ away from it. A smooth surface (a fillet, a cylinder) passes for planar
+/// strips of width w while its sag w²/(8R) keeps their RMS within the faces stage's 1.5
+/// sigmas (the RMS of a parabolic sag about its plane is 0.3 of the sag): w ≤ √(40Rσ); and
+/// neighbouring strips turn by φ ≈ w/R, so w ≤ 40σ/φ. Seen: 157° "edges" between strips of
+/// a random part's 37-spacing fillet in a structured-light view (noise along the ray, so
+/// less across an oblique face), 80–100 spacings from any edge of the part. A part's 160°
+/// edge at σ = 0.2 spacing needs faces 23 spacings wide.
+const STRIP_SIGMAS: f64 = 40.0;
+
+/// The edges where two planar faces meet along a stretch the scan follows, beyond those
+/// between plane corners (`existing`); see the module comment.
+#[allow(clippy::too_many_arguments)]
+pub fn pair_edges(
+    positions: &[[f64; 3]],
+    grid: &Grid,
+    features: &Features,
+    scale: &LocalScale,
+    faces: &Faces,
+    corners: &[FaceCorner],
+    existing: &[FaceEdge],
+    edges: &EdgeParams,
+) -> Vec<FaceEdge> {
+    if faces.planes.len() < 2 {
+        return Vec::new();
+    }
+    let candidates: Vec<u32> = (0..positions.len() as u32)
+        .filter(|&i| features.candidate[i as usize] && !features.outlier[i as usize])
+        .step_by(VOTE_STRIDE)
+        .collect();
+    // (face pair, candidate) for every candidate that sees two faces or more.
+    let mut votes: Vec<PairVote> = candidates
+        .par_iter()
+        .fold(
+            || (Vec::new(), Vec::new()),
+            |(mut out, mut seen): (Vec<PairVote>, Vec<(u32, usize)>), &c| {
+                faces_seen(positions, grid, faces, scale, c, &mut seen);
+                for (a, x) in seen.iter().enumerate() {
+                    for y in &seen[a + 1..] {
+                        out.push(([x.0, y.0], c));
+                    }
+                }
+                (out, seen)
+            },
+        )
+        .map(|(out, _)| out)
+        .reduce(Vec::new, |mut a, mut b| {
+            a.append(&mut b);
+            a
+        });
+    votes.par_sort_unstable();
+    let groups: Vec<&[PairVote]> = votes
+        .chunk_by(|a, b| a.0 == b.0)
+        .filter(|g| g.len() >= MIN_SUPPORT)
+        .collect();
+    let found: Vec<Vec<FaceEdge>> = groups
+        .par_iter()
+        .map(|group| {
+            let voters: Vec<u32> = group.iter().map(|v| v.1).collect();
+            pair_stretches(
+                positions,
+                grid,
+                &features.candidate,
+                scale,
+                faces,
+                corners,
+                existing,
+                edges,
+                group[0].0,
+                &voters,
+            )
+        })
+        .collect();
+    let out: Vec<FaceEdge> = found.into_iter().flatten().collect();
+    tracing::debug!(
+        "pair edges: {} face pairs named by {} candidates, {} edges",
+        groups.len(),
+        candidates.len(),
+        out.len()
+    );
+    out
+}
+
+/// Open ends of two edges within this many radii of their three faces' common point end
+/// there.
+const MEET: f64 = 3.0;
+
+/// Corners where pair edges meet: two edges sharing one face, with open ends (no plane
+/// corner) near each other, end at the common point of their three faces when that point
+/// lies within `MEET` radii of both ends, no farther back along either edge than that, an
+/// edge of the third pair of faces reaches within `MEET` radii of it, and no plane corner
+/// of those faces is there already. The new corners are appended to
+/// `corners` and the ends take them. Why: the plane corners are voted for by edge
+/// candidates that see three faces at once, and a structured-light grid or scan lines may
+/// leave no candidate there (the corner's rounding falls between the lines) while the
+/// edges that meet there run for dozens of spacings on both faces' points.
+pub fn meeting_corners(faces: &Faces, corners: &mut Vec<FaceCorner>, edges: &mut [FaceEdge]) {
+    // (edge, end) of every open end.
+    let open: Vec<(usize, usize)> = edges
+        .iter()
+        .enumerate()
+        .flat_map(|(i, e)| {
+            (0..2)
+                .filter(move |&k| e.corners[k].is_none())
+                .map(move |k| (i, k))
+        })
+        .collect();
+    let end_of = |e: &FaceEdge, k: usize| if k == 0 { e.start } else { e.end };
+    let mut added = 0usize;
+    for (a, &(i, ki)) in open.iter().enumerate() {
+        for &(j, kj) in &open[a + 1..] {
+            // An end that took a corner already still names it to the other end (the third
+            // edge of a corner pairs with one of the first two).
+            if i == j {
+                continue;
+            }
+            let (ei, ej) = (&edges[i], &edges[j]);
+            let shared: Vec<u32> = ei
+                .faces
+                .iter()
+                .copied()
+                .filter(|f| ej.faces.contains(f))
+                .collect();
+            if shared.len() != 1 {
+                continue;
+            }
+            let mut triple: Vec<u32> = ei.faces.iter().chain(&ej.faces).copied().collect();
+            triple.sort_unstable();
+            triple.dedup();
+            let reach = MEET * ei.scale.radius.max(ej.scale.radius);
+            let (pi, pj) = (end_of(ei, ki), end_of(ej, kj));
+            if norm(sub(pi, pj)) > 2.0 * reach {
+                continue;
+            }
+            // Three faces that turn against each other pairwise: a pair nearly parallel fixes
+            // no point.
+            let planes: Vec<_> = triple.iter().map(|&f| faces.planes[f as usize]).collect();
+            let turn_ok = (0..3).all(|x| {
+                (x + 1..3).all(|y| {
+                    dot(planes[x].normal, planes[y].normal).abs()
+                        < MIN_FACE_ANGLE.to_radians().cos()
+                })
+            });
+            if !turn_ok {
+                continue;
+            }
+            let Some(x) = intersect(&planes) else {
+                continue;
+            };
+            // Near both ends, and not back along either edge past its reach.
+            let fits = [(ei, ki), (ej, kj)].iter().all(|&(e, k)| {
+                let (p, q) = (end_of(e, k), end_of(e, 1 - k));
+                let along = sub(p, q);
+                let len = norm(along);
+                norm(sub(x, p)) <= reach
+                    && len > 0.0
+                    && dot(sub(x, p), along) / len >= -reach.min(0.5 * len)
+            });
+            // The third pair of faces meets there too: an edge of theirs reaches the point.
+            // Two strips of a fillet meeting a cap face each along an edge cross the cap's
+            // plane at no corner of the part.
+            let third: Vec<u32> = triple.iter().copied().filter(|f| *f != shared[0]).collect();
+            let closed = edges
+                .iter()
+                .any(|e| e.faces[..] == third[..] && point_segment(x, e.start, e.end).0 <= reach);
+            if !fits || !closed {
+                continue;
+            }
+            let taken = corners.iter().position(|c| {
+                triple.iter().all(|f| c.faces.contains(f)) && norm(sub(c.position, x)) <= reach
+            });
+            if taken.is_none() {
+                tracing::trace!(
+                    "pair edges {:?} and {:?} meet at {x:?} (ends {pi:?}, {pj:?})",
+                    ei.faces,
+                    ej.faces
+                );
+            }
+            let id = taken.unwrap_or_else(|| {
+                corners.push(FaceCorner {
+                    position: x,
+                    faces: triple.clone(),
+                    support: ei.points + ej.points,
+                    scale: if ei.scale.radius <= ej.scale.radius {
+                        ei.scale
+                    } else {
+                        ej.scale
+                    },
+                });
+                added += 1;
+                corners.len() - 1
+            });
+            let at = corners[id].position;
+            for (e, k) in [(i, ki), (j, kj)] {
+                if edges[e].corners[k].is_some() {
+                    continue;
+                }
+                edges[e].corners[k] = Some(id);
+                if k == 0 {
+                    edges[e].start = at;
+                } else {
+                    edges[e].end = at;
+                }
+            }
+        }
+    }
+    tracing::debug!("pair edges: {added} corners where two of them meet");
+}
+
+/// The edges of one face pair (see [`pair_edges`]).
+#[allow(clippy::too_many_arguments)]
+fn pair_stretches(
+    positions: &[[f64; 3]],
+    grid: &Grid,
+    candidate: &[bool],
+    scale: &LocalScale,
+    faces: &Faces,
+    corners: &[FaceCorner],
+    existing: &[FaceEdge],
+    edges: &EdgeParams,
+    pair: [u32; 2],
+    voters: &[u32],
+) -> Vec<FaceEdge> {
+    let (pa, pb) = (
+        faces.planes[pair[0] as usize],
+        faces.planes[pair[1] as usize],
+    );
+    let cos_ab = dot(pa.normal, pb.normal);
+    if cos_ab.abs() >= MIN_FACE_ANGLE.to_radians().cos() {
+        return Vec::new();
+    }
+    let Some(local) = scale.around(voters.iter().copied()) else {
+        return Vec::new();
+    };
+    let (r, step) = (local.radius, local.spacing);
+    if !(r > 0.0 && step > 0.0) {
+        return Vec::new();
+    }
+    let d = cross(pa.normal, pb.normal);
+    let d = d.map(|x| x / norm(d));
+    // The point of the line nearest the voters' centroid: c + α na + β nb on both planes.
+    let n = voters.len() as f64;
+    let c = voters.iter().fold([0.0; 3], |acc, &v| {
+        add(acc, scale_by(positions[v as usize], 1.0 / n))
+    });
+    let (da, db) = (pa.distance(c), pb.distance(c));
+    let det = 1.0 - cos_ab * cos_ab;
+    let alpha = (-da + cos_ab * db) / det;
+    let beta = (-db + cos_ab * da) / det;
+    let origin = add(
+        c,
+        add(scale_by(pa.normal, alpha), scale_by(pb.normal, beta)),
+    );
+    // The stretch the voters near the line cover.
+    let on_line: Vec<f64> = voters
+        .iter()
+        .filter_map(|&v| {
+            let w = sub(positions[v as usize], origin);
+            let t = dot(w, d);
+            (norm(sub(w, scale_by(d, t))) <= ON_LINE * r).then_some(t)
+        })
+        .collect();
+    if on_line.len() < MIN_SUPPORT {
+        return Vec::new();
+    }
+    let lo = on_line.iter().copied().fold(f64::INFINITY, f64::min) - r;
+    let hi = on_line.iter().copied().fold(f64::NEG_INFINITY, f64::max) + r;
+    let nsteps = ((hi - lo) / step).ceil() as usize + 1;
+    // A pair of faces the whole cloud apart with a handful of voters each end: no edge walks
+    // a million steps.
+    if nsteps > 1_000_000 {
+        return Vec::new();
+    }
+    // The interior angle between the faces, from the directions towards their points at the
+    // stretch's middle.
+    let mid = axpy(origin, 0.5 * (lo + hi), d);
+    let Some(tr) = traces(positions, grid, faces, pair, d, mid, (hi - lo).max(4.0 * r)) else {
+        return Vec::new();
+    };
+    let gap = hug_gap(fillet_limit(edges, &local), dot(tr[0], tr[1]), &local);
+    // Stretches of edges between plane corners of this pair: walked already.
+    let taken: Vec<(f64, f64)> = existing
+        .iter()
+        .filter(|e| e.faces == pair)
+        .filter(|e| {
+            [e.start, e.end].iter().all(|&p| {
+                let w = sub(p, origin);
+                norm(sub(w, scale_by(d, dot(w, d)))) <= SAME_EDGE * step
+            })
+        })
+        .map(|e| {
+            let (s, t) = (dot(sub(e.start, origin), d), dot(sub(e.end, origin), d));
+            (s.min(t), s.max(t))
+        })
+        .collect();
+    let on_edge: Vec<bool> = (0..nsteps)
+        .map(|k| {
+            let t = lo + k as f64 * step;
+            if taken.iter().any(|&(a, b)| t >= a && t <= b) {
+                return false;
+            }
+            let q = axpy(origin, t, d);
+            let mut near = [false; 2];
+            grid.for_each_within(q, FACE_REACH * r, |j, _, _| {
+                let l = faces.label[j as usize];
+                if l != NO_FACE {
+                    near[0] |= l == pair[0];
+                    near[1] |= l == pair[1];
+                }
+            });
+            near[0] && near[1] && hugs(grid, q, d, [&pa, &pb], gap, step)
+        })
+        .collect();
+    let max_gap_steps = (MAX_GAP * r / step).ceil() as usize;
+    let mut out = Vec::new();
+    let mut k = 0;
+    while k < nsteps {
+        if !on_edge[k] {
+            k += 1;
+            continue;
+        }
+        // A run from k: steps on the edge with gaps of at most `MAX_GAP` radii.
+        let (first, mut last, mut j) = (k, k, k + 1);
+        while j < nsteps && j <= last + max_gap_steps + 1 {
+            if on_edge[j] {
+                last = j;
+            }
+            j += 1;
+        }
+        k = last + 1;
+        let (t0, t1) = (lo + first as f64 * step, lo + last as f64 * step);
+        if t1 - t0 < MIN_LENGTH * r {
+            continue;
+        }
+        let ends = [t0, t1].map(|t| {
+            let p = axpy(origin, t, d);
+            corners
+                .iter()
+                .enumerate()
+                .filter(|(_, fc)| fc.faces.contains(&pair[0]) && fc.faces.contains(&pair[1]))
+                .map(|(i, fc)| (norm(sub(fc.position, p)), i))
+                .filter(|&(dist, _)| dist <= SNAP * r)
+                .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)))
+                .map_or((p, None), |(_, i)| (corners[i].position, Some(i)))
+        });
+        let (start, end) = (ends[0].0, ends[1].0);
+        if norm(sub(end, start)) < MIN_LENGTH * r {
+            continue;
+        }
+        let Some(traces) = traces(
+            positions,
+            grid,
+            faces,
+            pair,
+            d,
+            scale_by(add(start, end), 0.5),
+            4.0 * r,
+        ) else {
+            continue;
+        };
+        let mid = scale_by(add(start, end), 0.5);
+        let turn = std::f64::consts::PI - dot(traces[0], traces[1]).clamp(-1.0, 1.0).acos();
+        // Each face by its own noise: the strip whose RMS hides a sag is that face, and the
+        // candidates at the line may see a quieter face (a grazing face of a structured-light
+        // view is smoother than the one facing the camera).
+        let wide = [&pa, &pb].map(|p| STRIP_SIGMAS * p.noise.max(local.noise) / turn.max(1e-3));
+        if !reach_beyond(grid, faces, pair, mid, d, wide, step, 3.0 * r) {
+            tracing::trace!(
+                "pair edge {pair:?} at {mid:?}: a face narrower than {:.1} or {:.1} spacings, a \
+                 strip of a smooth surface",
+                wide[0] / step,
+                wide[1] / step
+            );
+            continue;
+        }
+        let rounding = fillet_limit(edges, &local);
+        if let Some(depth) = rounded_crease(
+            positions,
+            grid,
+            [&pa, &pb],
+            &traces,
+            start,
+            end,
+            &local,
+            rounding,
+        ) {
+            tracing::trace!(
+                "pair edge {pair:?} at {mid:?}: the scan stays {depth:.3} inside the planes' \
+                 line, a rounding wider than {rounding:.3}: a crease between strips of a \
+                 smooth surface"
+            );
+            continue;
+        }
+        if let Some(share) = off_crease(positions, grid, [&pa, &pb], &traces, start, end, &local) {
+            tracing::trace!(
+                "pair edge {pair:?} at {mid:?}: {:.0} % of the points beside it lie on the other \
+                 face's plane: the faces meet elsewhere",
+                100.0 * share
+            );
+            continue;
+        }
+        tracing::trace!(
+            "pair edge {pair:?} from {start:?} to {end:?}: turn {:.1}°, faces {:.1} and {:.1} \
+             spacings wide or more, noise {:.4}, spacing {:.4}",
+            turn.to_degrees(),
+            wide[0] / step,
+            wide[1] / step,
+            local.noise,
+            step
+        );
+        let mut points = 0usize;
+        grid.for_each_near_segment(start, end, r, |i| {
+            points += usize::from(candidate[i as usize]);
+        });
+        out.push(FaceEdge {
+            corners: [ends[0].1, ends[1].1],
+            faces: pair,
+            start,
+            end,
+            points,
+            traces,
+            scale: local,
+        });
+    }
+    out
+}
+
+/// Points within this many spacings (plus the hug gap) of a pair edge show which face they
+/// lie on; at most `MISPLACED` of those that tell lie on the other side of the edge.
+const CREASE_BAND: f64 = 3.0;
+const MISPLACED: f64 = 0.25;
+/// A point tells its face when its distances to the two planes differ by this many sigmas.
+const TELL_SIGMAS: f64 = 3.0;
+
+/// The share of the points beside the segment `start`–`end` that lie on the wrong face's
+/// plane (nearer plane b on face a's side of the line, or the reverse), when more than
+/// `MISPLACED` of those that tell; `None` when the crease is where the line is. At obtuse
+/// angles a small error in either plane moves their intersection line by spacings (by the
+/// error over the sine of the turn), while both planes still pass near the scan there.
+fn off_crease(
+    positions: &[[f64; 3]],
+    grid: &Grid,
+    planes: [&crate::stages::faces::Plane; 2],
+    traces: &[[f64; 3]; 2],
+    start: [f64; 3],
+    end: [f64; 3],
+    local: &crate::stages::features::Scale,
+) -> Option<f64> {
+    let band = CREASE_BAND * local.spacing;
+    let tell = TELL_SIGMAS * local.noise;
+    let (mut told, mut wrong) = (0usize, 0usize);
+    grid.for_each_near_segment(start, end, band, |i| {
+        let p = positions[i as usize];
+        let w = sub(p, start);
+        let on_a = dot(w, traces[0]) > dot(w, traces[1]);
+        let (da, db) = (planes[0].distance(p).abs(), planes[1].distance(p).abs());
+        if (da - db).abs() <= tell {
+            return;
+        }
+        told += 1;
+        wrong += usize::from(on_a != (da < db));
+    });
+    let share = wrong as f64 / told.max(1) as f64;
+    (told >= 10 && share > MISPLACED).then_some(share)
+}
+
+/// Points within this many spacings of the bisector of a pair edge's faces (across the
+/// edge) show how far inside the planes' line the scan turns.
+const CREASE_CORE: f64 = 1.0;
+/// The fewest such points that judge a crease.
+const CREASE_MIN_POINTS: usize = 10;
+
+/// How far inside the faces' line the scan turns along the segment `start`–`end` (the
+/// median excess below), when more than a rounding of radius `rounding` would keep it
+/// (`None` when it turns within that, or too few points near the line tell). In the edge's
+/// profile a point's depth along the bisector of the traces, less what the wedge itself
+/// gives at its distance across the bisector, is the rounding's excess: 0 on a sharp wedge,
+/// `ρ (1/sin(θ/2) − 1)` at the crease of a rounding of radius ρ at interior angle θ,
+/// falling off across it. Over the points within `CREASE_CORE` spacings of the bisector,
+/// the median of each point's excess beyond the widest rounding's at its offset must stay
+/// within two standard errors of the median. Why: planar strips of a wide fillet (its radius past
+/// the widest rounding) meet at creases whose line lies off the scan by about 2/3 of R φ²/8
+/// (turn φ, strips fitted as chords), too little for `plane_corners::hugs`, whose gap allows
+/// three noise sigmas per point. Seen: 157° "edges" of a 37-spacing fillet in one
+/// structured-light view of a random part, between a grazing face and fillet strips of
+/// 70–124 points.
+#[allow(clippy::too_many_arguments)]
+fn rounded_crease(
+    positions: &[[f64; 3]],
+    grid: &Grid,
+    planes: [&crate::stages::faces::Plane; 2],
+    traces: &[[f64; 3]; 2],
+    start: [f64; 3],
+    end: [f64; 3],
+    local: &crate::stages::features::Scale,
+    rounding: f64,
+) -> Option<f64> {
+    let sum = add(traces[0], traces[1]);
+    let across = sub(traces[0], traces[1]);
+    let (ls, la) = (norm(sum), norm(across));
+    if ls < 1e-6 || la < 1e-6 {
+        return None;
+    }
+    let (bis, acr) = (scale_by(sum, 1.0 / ls), scale_by(across, 1.0 / la));
+    // Half the interior angle: the traces are unit vectors θ apart.
+    let (sin_half, cos_half) = (0.5 * la, 0.5 * ls);
+    let core = CREASE_CORE * local.spacing;
+    // The excess of a rounding of radius ρ at offset v across the bisector: its arc (centre
+    // ρ/sin(θ/2) inside the line) less the wedge, 0 beyond its tangent points.
+    let widest = |v: f64| {
+        if v.abs() >= rounding * cos_half {
+            return 0.0;
+        }
+        rounding / sin_half - (rounding * rounding - v * v).sqrt() - v.abs() * cos_half / sin_half
+    };
+    let (mut excess, mut beyond): (Vec<f64>, Vec<f64>) = (Vec::new(), Vec::new());
+    grid.for_each_near_segment(start, end, core.max(rounding), |i| {
+        let w = sub(positions[i as usize], start);
+        let v = dot(w, acr);
+        if v.abs() > core {
+            return;
+        }
+        let e = dot(w, bis) - v.abs() * cos_half / sin_half;
+        excess.push(e);
+        beyond.push(e - widest(v));
+    });
+    if excess.len() < CREASE_MIN_POINTS {
+        return None;
+    }
+    let median = |x: &mut Vec<f64>| {
+        x.sort_unstable_by(f64::total_cmp);
+        x[x.len() / 2]
+    };
+    let sigma = planes[0].noise.max(planes[1].noise).max(local.noise) / sin_half;
+    // The median's standard error is 1.25 σ/√n for normal errors.
+    let slack = 2.5 * sigma / (excess.len() as f64).sqrt();
+    (median(&mut beyond) > slack).then(|| median(&mut excess))
+}
+
+/// Whether each face `pair[k]` has points at least `wide[k]` from the line through `mid`
+/// along unit `d`, within `step` of `mid` along it, looking at least `band` out (the edge
+/// candidates' band, which no face labels).
+#[allow(clippy::too_many_arguments)]
+fn reach_beyond(
+    grid: &Grid,
+    faces: &Faces,
+    pair: [u32; 2],
+    mid: [f64; 3],
+    d: [f64; 3],
+    wide: [f64; 2],
+    step: f64,
+    band: f64,
+) -> bool {
+    let mut far = [false; 2];
+    grid.for_each_within(mid, wide[0].max(wide[1]).max(band) + step, |j, w, _| {
+        let l = faces.label[j as usize];
+        let Some(k) = pair.iter().position(|&f| f == l) else {
+            return;
+        };
+        let along = dot(w, d);
+        far[k] |= along.abs() <= step && norm(sub(w, scale_by(d, along))) >= wide[k];
+    });
+    far[0] && far[1]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::stages::faces::Plane;
+    use crate::stages::features::Scale;
+
+    /// Two half-planes meeting along the y axis at the interior angle `angle_deg`, each
+    /// scanned in lines parallel to the edge `gap` apart (the first `offset` from the edge),
+    /// points every `pitch` along them for y in [0, length]; between them, a circular fillet
+    /// of `fillet` radius (0: none) or a chamfer cutting `chamfer` off each face (0: none),
+    /// sampled likewise. Points within `band` of the edge line are edge candidates; the rest
+    /// are labelled with their face (0, 1; 2 for the chamfer).
+    struct Wedge {
+        positions: Vec<[f64; 3]>,
+        faces: Faces,
+        features: Features,
+        scale: LocalScale,
+    }
+
+    fn wedge(angle_deg: f64, fillet: f64, chamfer: f64) -> Wedge {
+        let (gap, pitch, length, width, band) = (3.0, 0.25, 60.0, 30.0, 2.0);
+        let half = 0.5 * angle_deg.to_radians();
+        // Unit directions in the xz-plane away from the edge along each face.
+        let dirs = [
+            [half.cos(), 0.0, half.sin()],
+            [half.cos(), 0.0, -half.sin()],
+        ];
+        // Where the faces start: the tangent points of a fillet, the cut of a chamfer.
+        let start = if fillet > 0.0 {
+            fillet / half.tan()
+        } else {
+            chamfer
+        };
+        let mut positions = Vec::new();
+        let mut label = Vec::new();
+        let mut line = |p0: [f64; 3], l: u32, positions: &mut Vec<[f64; 3]>| {
+            let n = (length / pitch) as usize;
+            for k in 0..=n {
+                positions.push([p0[0], k as f64 * pitch, p0[2]]);
+                label.push(l);
+            }
+        };
+        for (f, d) in dirs.iter().enumerate() {
+            let mut s = start + 0.4 * gap;
+            while s < width {
+                line(d.map(|x| x * s), f as u32, &mut positions);
+                s += gap;
+            }
+        }
+        if fillet > 0.0 {
+            // The arc's centre lies on the bisector, `fillet / sin(half)` from the edge.
+            let c = fillet / half.sin();
+            let turn = std::f64::consts::PI - 2.0 * half;
+            let steps = ((fillet * turn) / gap).ceil().max(2.0) as usize;
+            for k in 0..=steps {
+                let a = std::f64::consts::PI + (k as f64 / steps as f64 - 0.5) * turn;
+                line(
+                    [c + fillet * a.cos(), 0.0, fillet * a.sin()],
+                    NO_FACE,
+                    &mut positions,
+                );
+            }
+        } else if chamfer > 0.0 {
+            let (a, b) = (dirs[0].map(|x| x * chamfer), dirs[1].map(|x| x * chamfer));
+            let w = norm(sub(a, b));
+            let steps = (w / gap).ceil().max(2.0) as usize;
+            for k in 0..=steps {
+                let t = k as f64 / steps as f64;
+                line(axpy(a, t, sub(b, a)), 2, &mut positions);
+            }
+        }
+        let n = positions.len();
+        let near_edge = |p: &[f64; 3]| (p[0] * p[0] + p[2] * p[2]).sqrt() < start + band;
+        let candidate: Vec<bool> = positions.iter().map(near_edge).collect();
+        let label: Vec<u32> = label
+            .iter()
+            .zip(&candidate)
+            .map(|(&l, &c)| if c { NO_FACE } else { l })
+            .collect();
+        let plane = |normal: [f64; 3], on: [f64; 3]| Plane {
+            normal,
+            centroid: on,
+            points: 1000,
+            rms: 0.0,
+            spacing: gap,
+            noise: 0.01,
+        };
+        let mut planes = vec![
+            plane([-half.sin(), 0.0, half.cos()], dirs[0].map(|x| x * 10.0)),
+            plane([half.sin(), 0.0, half.cos()], dirs[1].map(|x| x * 10.0)),
+        ];
+        if chamfer > 0.0 {
+            planes.push(plane([1.0, 0.0, 0.0], [half.cos() * chamfer, 0.0, 0.0]));
+        }
+        Wedge {
+            features: Features {
+                candidate,
+                outlier: vec![false; n],
+                ..Features::default()
+            },
+            scale: LocalScale::uniform(
+                n,
+                Scale {
+                    spacing: gap,
+                    pitch,
+                    noise: 0.01,
+                    radius: 4.0 * gap,
+                },
+            ),
+            faces: Faces { label, planes },
+            positions,
+        }
+    }
+
+    fn edges_of(w: &Wedge) -> Vec<FaceEdge> {
+        let grid = Grid::new(&w.positions, 12.0).unwrap();
+        pair_edges(
+            &w.positions,
+            &grid,
+            &w.features,
+            &w.scale,
+            &w.faces,
+            &[],
+            &[],
+            &EdgeParams::default(),
+        )
+    }
+
+    /// Distance of `p` from the y axis (the wedge's edge line).
+    fn off_axis(p: [f64; 3]) -> f64 {
+        (p[0] * p[0] + p[2] * p[2]).sqrt()
+    }
+
+    #[test]
+    fn faces_scanned_in_lines_along_their_edge_meet_on_one_edge() {
+        // Scan lines 3 apart run along the edge, the nearest 1.2 from it on each face: no
+        // point comes near the edge line, and a slab across it sees every line as one point.
+        for angle in [90.0, 150.0, 160.0] {
+            let w = wedge(angle, 0.0, 0.0);
+            let found = edges_of(&w);
+            assert_eq!(found.len(), 1, "{angle}°: {found:?}");
+            let e = &found[0];
+            assert_eq!(e.faces, [0, 1]);
+            assert_eq!(e.corners, [None, None]);
+            assert!(off_axis(e.start) < 1e-9 && off_axis(e.end) < 1e-9, "{e:?}");
+            let (y0, y1) = (e.start[1].min(e.end[1]), e.start[1].max(e.end[1]));
+            assert!(
+                y0 < 1.0 && y1 > 59.0,
+                "{angle}°: covers {y0}..{y1} of 0..60"
+            );
+            // The faces' directions away from the edge, at the angle between them.
+            let cos = dot(e.traces[0], e.traces[1]);
+            assert!((cos.acos().to_degrees() - angle).abs() < 1e-6, "{cos}");
+        }
+    }
+
+    #[test]
+    fn a_fillet_or_a_chamfer_between_two_faces_is_no_edge_of_theirs() {
+        // A fillet of radius 20 (the scan keeps 8.3 off the line at 90°).
+        let found = edges_of(&wedge(90.0, 20.0, 0.0));
+        assert!(found.is_empty(), "{found:?}");
+        // A chamfer cutting 10 off each face: its own two edges, not the two faces' line.
+        let found = edges_of(&wedge(90.0, 0.0, 10.0));
+        assert!(found.iter().all(|e| e.faces != [0, 1]), "{found:?}");
+        assert!(found.iter().all(|e| off_axis(e.start) > 9.0), "{found:?}");
+    }
+
+    /// Points of the profile `curve(s)` (in the xz-plane) for s in [-w, w], every `step`,
+    /// extruded along y over [0, 20].
+    fn extrude(curve: impl Fn(f64) -> [f64; 2], w: f64, step: f64) -> Vec<[f64; 3]> {
+        let n = (2.0 * w / step) as usize;
+        let mut out = Vec::new();
+        for i in 0..=n {
+            let [x, z] = curve(-w + i as f64 * step);
+            for k in 0..=(20.0 / step) as usize {
+                out.push([x, k as f64 * step, z]);
+            }
+        }
+        out
+    }
+
+    /// The crease test on the y axis for faces along ±x that bend down by half of
+    /// `turn_deg` each (a convex edge, its material below), their planes through the axis.
+    fn crease(positions: &[[f64; 3]], turn_deg: f64, rounding: f64) -> Option<f64> {
+        let h = 0.5 * turn_deg.to_radians();
+        let traces = [[h.cos(), 0.0, -h.sin()], [-h.cos(), 0.0, -h.sin()]];
+        let plane = |t: [f64; 3]| Plane {
+            normal: [t[2].abs() * t[0].signum(), 0.0, t[0].abs()],
+            centroid: scale_by(t, 5.0),
+            points: 1000,
+            rms: 0.0,
+            spacing: 0.2,
+            noise: 0.01,
+        };
+        let grid = Grid::new(positions, 1.0).unwrap();
+        let local = Scale {
+            spacing: 0.2,
+            pitch: 0.2,
+            noise: 0.01,
+            radius: 0.8,
+        };
+        rounded_crease(
+            positions,
+            &grid,
+            [&plane(traces[0]), &plane(traces[1])],
+            &traces,
+            [0.0, 2.0, 0.0],
+            [0.0, 18.0, 0.0],
+            &local,
+            rounding,
+        )
+    }
+
+    #[test]
+    fn a_crease_between_strips_of_a_wide_arc_is_rounder_than_a_sharp_edge() {
+        // Issue 17 (r014 of `--random 100 --seed 1`): two strips of a fillet of radius R
+        // meet at a 23° crease; the arc stays about R(1/cos(φ/2) − 1) = 0.16 inside the
+        // planes' line at R = 7.4 (chord planes through the crease's tangent line here).
+        let (r, phi) = (7.4f64, 23.0f64.to_radians());
+        let arc = |s: f64| {
+            let a = s / r;
+            [r * a.sin(), r * a.cos() - r / (0.5 * phi).cos()]
+        };
+        // The planes' line is at z = 0: the arc's top lies R/cos(φ/2) − R below it.
+        // Sampled every 0.2 across, the points within a spacing of the crease sit at
+        // offsets 0 and ±0.2, where the wedge itself falls 0.04 below the crease.
+        let strips = extrude(arc, 3.0, 0.2);
+        let depth = crease(&strips, 23.0, 2.0).expect("a crease of a wide arc");
+        let at = |v: f64| r / (0.5 * phi).cos() - (r * r - v * v).sqrt() - v * (0.5 * phi).tan();
+        assert!((depth - at(0.2)).abs() < 1e-3, "{depth} {}", at(0.2));
+        // A sharp edge at the same turn, and one rounded by less than the widest rounding
+        // (radius 2: 0.04 inside the line), are sharp.
+        let h = 0.5 * phi;
+        let sharp = |s: f64| [s * h.cos(), -s.abs() * h.sin()];
+        assert_eq!(crease(&extrude(sharp, 3.0, 0.2), 23.0, 2.0), None);
+        let rho = 1.5;
+        let rounded = |s: f64| {
+            // The arc up to its tangent points, a turn of h each way; the faces beyond them.
+            if s.abs() >= rho * h {
+                sharp(s.signum() * (s.abs() - rho * h + rho * h.tan()))
+            } else {
+                let a = s / rho;
+                [rho * a.sin(), rho * a.cos() - rho / h.cos()]
+            }
+        };
+        assert_eq!(crease(&extrude(rounded, 3.0, 0.2), 23.0, 2.0), None);
+    }
+
+    #[test]
+    fn three_pair_edges_that_end_near_their_faces_common_point_end_at_a_corner() {
+        // The corner of a box at the origin: faces x = 0, y = 0, z = 0 (ids 0, 1, 2), its
+        // three edges along the axes from 10 out to 0.5-1.2 short of the corner (open ends
+        // where the corner's rounding stopped the walk).
+        let plane = |normal: [f64; 3]| Plane {
+            normal,
+            centroid: normal.map(|_| 0.0),
+            points: 1000,
+            rms: 0.0,
+            spacing: 0.2,
+            noise: 0.01,
+        };
+        let faces = Faces {
+            label: Vec::new(),
+            planes: vec![
+                plane([1.0, 0.0, 0.0]),
+                plane([0.0, 1.0, 0.0]),
+                plane([0.0, 0.0, 1.0]),
+            ],
+        };
+        let scale = Scale {
+            spacing: 0.2,
+            pitch: 0.2,
+            noise: 0.01,
+            radius: 0.8,
+        };
+        let edge = |faces: [u32; 2], axis: usize, short: f64| {
+            let at = |t: f64| {
+                let mut p = [0.0; 3];
+                p[axis] = t;
+                p
+            };
+            FaceEdge {
+                corners: [None, None],
+                faces,
+                start: at(10.0),
+                end: at(short),
+                points: 40,
+                traces: [[0.0; 3]; 2],
+                scale,
+            }
+        };
+        // Edge along z between faces x = 0 and y = 0, and so on.
+        let all = vec![
+            edge([0, 1], 2, 0.5),
+            edge([0, 2], 1, 1.2),
+            edge([1, 2], 0, 0.9),
+        ];
+        let mut edges = all.clone();
+        let mut corners = Vec::new();
+        meeting_corners(&faces, &mut corners, &mut edges);
+        assert_eq!(corners.len(), 1, "{corners:?}");
+        assert_eq!(corners[0].faces, vec![0, 1, 2]);
+        assert!(
+            norm(corners[0].position) < 1e-12,
+            "{:?}",
+            corners[0].position
+        );
+        for e in &edges {
+            assert_eq!(e.corners, [None, Some(0)]);
+            assert!(norm(e.end) < 1e-12);
+        }
+        // Two of the edges only: faces 1 and 2 may not meet there (strips of a fillet that
+        // each meet a cap face cross its plane at no corner).
+        let mut two = all[..2].to_vec();
+        let mut corners = Vec::new();
+        meeting_corners(&faces, &mut corners, &mut two);
+        assert!(corners.is_empty() && two.iter().all(|e| e.corners == [None, None]));
+        // Ends farther than `MEET` radii (2.4) from the point: no corner.
+        let mut far = vec![
+            edge([0, 1], 2, 3.0),
+            edge([0, 2], 1, 3.0),
+            edge([1, 2], 0, 3.0),
+        ];
+        let mut corners = Vec::new();
+        meeting_corners(&faces, &mut corners, &mut far);
+        assert!(corners.is_empty(), "{corners:?}");
+    }
+
+    #[test]
+    fn faces_that_turn_by_less_than_the_least_angle_are_one_surface() {
+        // 170°: a turn of 10°, less than MIN_FACE_ANGLE.
+        assert!(edges_of(&wedge(170.0, 0.0, 0.0)).is_empty());
+    }
+}
