@@ -23,6 +23,7 @@ pub mod progress;
 pub mod report;
 pub mod stages;
 pub mod synth;
+pub mod tiles;
 #[cfg(test)]
 pub(crate) mod testdata;
 
