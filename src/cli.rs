@@ -57,10 +57,18 @@ pub struct PlanArgs {
     #[arg(long, value_name = "L", conflicts_with = "grid")]
     pub tile_size: Option<f64>,
     /// NX,NY,NZ tiles splitting the bounding box evenly.
-    #[arg(long, value_name = "NX,NY,NZ", value_delimiter = ',', num_args = 3)]
+    // clap counts `num_args` before splitting at the delimiter: 1..=3 takes `2,2,2` and
+    // `2 2 2`; the count of three is checked after parsing.
+    #[arg(long, value_name = "NX,NY,NZ", value_delimiter = ',', num_args = 1..=3)]
     pub grid: Option<Vec<usize>>,
     /// A corner X,Y,Z of the tile grid (default: the bounding box's minimum).
-    #[arg(long, value_name = "X,Y,Z", value_delimiter = ',', num_args = 3, allow_negative_numbers = true)]
+    #[arg(
+        long,
+        value_name = "X,Y,Z",
+        value_delimiter = ',',
+        num_args = 1..=3,
+        allow_hyphen_values = true
+    )]
     pub anchor: Option<Vec<f64>>,
     /// Halo width in model units (default: derived from the spacing and the pipeline file;
     /// see the README's "Tiles").
@@ -371,6 +379,20 @@ fn plan(cli: &Cli, a: &PlanArgs) -> anyhow::Result<()> {
             option: "--input".into(),
             message: "no input cloud: set input.path in the pipeline file or pass --input".into(),
         })?;
+    for (option, n) in [
+        ("--grid", a.grid.as_ref().map(Vec::len)),
+        ("--anchor", a.anchor.as_ref().map(Vec::len)),
+    ] {
+        if let Some(n) = n
+            && n != 3
+        {
+            return Err(sharpedge::Error::Usage {
+                option: option.into(),
+                message: format!("needs three values X,Y,Z, got {n}"),
+            }
+            .into());
+        }
+    }
     let sizing = match (a.tile_points, a.tile_size, &a.grid) {
         (Some(n), _, _) => Sizing::Points(n),
         (_, Some(l), _) => Sizing::Size(l),

@@ -41,7 +41,7 @@ use crate::config::Settings;
 use crate::error::{Error, Result};
 use crate::geometry::{dist, dot, norm, sub};
 use crate::io::{self, PlyWriteOptions};
-use crate::outcome::{CornerOut, EdgeKind, EdgeOut, FitErrors, Timing, link_corners};
+use crate::outcome::{CornerOut, EdgeKind, EdgeOut, Timing, link_corners};
 use crate::stages::convexity::Votes;
 
 /// Members closer to parallel than this are candidates for one edge.
@@ -468,7 +468,7 @@ fn join(plan: &Plan, partials: &[Option<&Partial>]) -> Joined {
         if tiles.len() > 1 {
             joined += 1;
         }
-        let Some(edge) = merge_group(group, &members, &corner_map, id) else {
+        let Some(edge) = merge_group(group, &members, &corner_map, &corners, id) else {
             continue;
         };
         for &i in group {
@@ -495,6 +495,7 @@ fn merge_group(
     group: &[usize],
     members: &[Member],
     corner_map: &[Vec<Option<usize>>],
+    corners: &[CornerOut],
     id: usize,
 ) -> Option<EdgeOut> {
     let first = &members[group[0]];
@@ -541,7 +542,7 @@ fn merge_group(
     let mut points = 0.0;
     let mut weights = 0.0;
     let mut dihedral = 0.0;
-    let mut errors = [0.0f64; 4];
+    let mut errors = [0.0f64; 3];
     let mut has_errors = false;
     let mut best_votes = (0usize, [0usize; 2]);
     for &i in group {
@@ -571,7 +572,7 @@ fn merge_group(
         }
         if let Some(e) = m.edge.error {
             has_errors = true;
-            for k in 0..4 {
+            for k in 0..3 {
                 errors[k] += e[k] * share;
             }
         }
@@ -584,8 +585,50 @@ fn merge_group(
     if pieces.is_empty() && rectified.is_empty() {
         return None;
     }
-    let (start, end) = (end_point(start_end), end_point(end_end));
+    let (mut start, mut end) = (end_point(start_end), end_point(end_end));
     let all_straight = group.iter().all(|&i| members[i].straight());
+    let (mut start_corner, mut end_corner_id) = (end_corner(start_end), end_corner(end_end));
+    // An extreme that is a cut end (outside its tile's region: no tile that owns the end
+    // reported the edge, e.g. its run was judged differently next to that tile's read box)
+    // is continued along the line to the nearest corner beyond it, as `run` extends edges to
+    // their corners.
+    if all_straight && !closed_single {
+        let tol = group.iter().map(|&i| members[i].gap).fold(0.0, f64::max);
+        let beyond = |from: [f64; 3], other: [f64; 3]| -> Option<usize> {
+            let d = sub(from, other);
+            let l = norm(d);
+            if l == 0.0 {
+                return None;
+            }
+            let u = d.map(|x| x / l);
+            corners
+                .iter()
+                .filter_map(|c| {
+                    let v = sub(c.position, from);
+                    let along = dot(v, u);
+                    let lateral = norm([
+                        v[0] - along * u[0],
+                        v[1] - along * u[1],
+                        v[2] - along * u[2],
+                    ]);
+                    (along > 0.0 && lateral <= tol).then_some((along, c.id))
+                })
+                .min_by(|a, b| a.0.total_cmp(&b.0))
+                .map(|(_, id)| id)
+        };
+        if start_end.1 > 0.0
+            && let Some(c) = beyond(start, end)
+        {
+            start = corners[c].position;
+            start_corner = Some(c);
+        }
+        if end_end.1 > 0.0
+            && let Some(c) = beyond(end, start)
+        {
+            end = corners[c].position;
+            end_corner_id = Some(c);
+        }
+    }
     let polyline = if closed_single {
         first.edge.polyline.clone()
     } else if all_straight || pieces.is_empty() {
@@ -610,7 +653,7 @@ fn merge_group(
     let corners = if closed_single {
         [None, None]
     } else {
-        [end_corner(start_end), end_corner(end_end)]
+        [start_corner, end_corner_id]
     };
     Some(EdgeOut {
         id,
@@ -627,11 +670,7 @@ fn merge_group(
         polyline,
         closed: closed_single,
         rectified,
-        error: has_errors.then(|| {
-            let mut f: FitErrors = errors_from(errors);
-            f.ga = None;
-            f
-        }),
+        error: has_errors.then(|| errors_from(errors)),
     })
 }
 

@@ -173,10 +173,16 @@ fn expected_counts(grid: &Grid, halo: f64, sample: &[[f64; 3]], points: u64) -> 
         .collect()
 }
 
-/// A grid of cubes of side `size` from `origin` covering `bounds`.
-fn cube_grid(bounds: &Bounds, origin: [f64; 3], size: f64) -> Grid {
+/// A grid of cubes of side `size` with a corner at `anchor` covering `bounds`: the grid's
+/// origin is the anchor moved down by whole cells to the bounds' minimum, so seams lie at
+/// the anchor plus multiples of `size` on both sides of it.
+fn cube_grid(bounds: &Bounds, anchor: [f64; 3], size: f64) -> Grid {
     let mut cells = [1usize; 3];
+    let mut origin = anchor;
     for k in 0..3 {
+        if origin[k] > bounds[0][k] {
+            origin[k] -= ((origin[k] - bounds[0][k]) / size).ceil() * size;
+        }
         let n = ((bounds[1][k] - origin[k]) / size).ceil();
         cells[k] = if n > 1.0 { n.min(1e9) as usize } else { 1 };
     }

@@ -48,8 +48,8 @@ pub struct PartEdge {
     pub polyline: Vec<[f64; 3]>,
     pub closed: bool,
     pub rectified: Vec<[f64; 3]>,
-    /// Fit errors: Scheme 1, PSO, GA (NaN: none), exact.
-    pub error: Option<[f64; 4]>,
+    /// Fit errors: Scheme 1, PSO, exact (the pipeline runs no GA).
+    pub error: Option<[f64; 3]>,
 }
 
 impl PartEdge {
@@ -73,18 +73,19 @@ impl PartEdge {
     }
 }
 
-/// Fit errors as four numbers (GA: NaN when absent).
-pub fn errors_of(f: FitErrors) -> [f64; 4] {
-    [f.scheme1, f.pso, f.ga.unwrap_or(f64::NAN), f.exact]
+/// Fit errors as three numbers: Scheme 1, PSO, exact (the pipeline runs no GA: `ga` is
+/// always absent in its reports).
+pub fn errors_of(f: FitErrors) -> [f64; 3] {
+    [f.scheme1, f.pso, f.exact]
 }
 
 /// Fit errors back from [`errors_of`].
-pub fn errors_from(a: [f64; 4]) -> FitErrors {
+pub fn errors_from(a: [f64; 3]) -> FitErrors {
     FitErrors {
         scheme1: a[0],
         pso: a[1],
-        ga: a[2].is_finite().then_some(a[2]),
-        exact: a[3],
+        ga: None,
+        exact: a[2],
     }
 }
 
@@ -94,7 +95,7 @@ pub struct PartCorner {
     pub id: usize,
     pub position: [f64; 3],
     pub edges: Vec<usize>,
-    pub error: Option<[f64; 4]>,
+    pub error: Option<[f64; 3]>,
     pub scheme1: [f64; 3],
     pub exact: [f64; 3],
 }
