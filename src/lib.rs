@@ -23,9 +23,9 @@ pub mod progress;
 pub mod report;
 pub mod stages;
 pub mod synth;
-pub mod tiles;
 #[cfg(test)]
 pub(crate) mod testdata;
+pub mod tiles;
 
 pub use cloud::{Attribute, Cloud, Column, Pose, Scan, ScanStructure, Source};
 // The stages' public paths of before they were grouped under stages/ (sharpedge::features,

@@ -62,7 +62,9 @@ fn start_cluster(dir: &Path, bins: &[PathBuf; 3]) -> (Daemons, PathBuf) {
     }
     // Our own munge key: any 1024 bytes, readable by root only.
     let key = dir.join("munge.key");
-    let bytes: Vec<u8> = (0..1024u32).map(|i| (i.wrapping_mul(2654435761) >> 13) as u8).collect();
+    let bytes: Vec<u8> = (0..1024u32)
+        .map(|i| (i.wrapping_mul(2654435761) >> 13) as u8)
+        .collect();
     std::fs::write(&key, bytes).unwrap();
     use std::os::unix::fs::PermissionsExt;
     std::fs::set_permissions(&key, std::fs::Permissions::from_mode(0o600)).unwrap();
@@ -115,9 +117,9 @@ fn start_cluster(dir: &Path, bins: &[PathBuf; 3]) -> (Daemons, PathBuf) {
         }
     };
     wait_for("munged", &|| socket.exists());
-    daemons
-        .0
-        .push(spawn(Command::new(slurmctld).arg("-D").arg("-f").arg(&conf_path)));
+    daemons.0.push(spawn(
+        Command::new(slurmctld).arg("-D").arg("-f").arg(&conf_path),
+    ));
     daemons.0.push(spawn(
         Command::new(slurmd)
             .arg("-D")
@@ -142,10 +144,23 @@ fn a_plan_runs_as_a_slurm_job_array_and_with_xargs() {
     let d = tmp.path();
     let cfg = config(d, 5.0);
     let cfg = cfg.to_str().unwrap();
-    ok(d, &["-q", "synth", "--part", "box", "--points", "200000", "--out", "box.ply"]);
-    ok(d, &["-q", "run", cfg, "--input", "box.ply", "--out", "whole"]);
+    ok(
+        d,
+        &[
+            "-q", "synth", "--part", "box", "--points", "200000", "--out", "box.ply",
+        ],
+    );
+    ok(
+        d,
+        &["-q", "run", cfg, "--input", "box.ply", "--out", "whole"],
+    );
     let (we, wc) = features(&d.join("whole"));
-    ok(d, &["-q", "plan", cfg, "--input", "box.ply", "--out", "plan", "--grid", "2,2,1"]);
+    ok(
+        d,
+        &[
+            "-q", "plan", cfg, "--input", "box.ply", "--out", "plan", "--grid", "2,2,1",
+        ],
+    );
     let script = std::fs::read_to_string(d.join("plan/sbatch.sh")).unwrap();
     assert!(script.contains("#SBATCH --array=0-3\n"), "{script}");
 
@@ -177,7 +192,12 @@ fn a_plan_runs_as_a_slurm_job_array_and_with_xargs() {
     let bins = bins.map(Option::unwrap);
     let cluster = tempfile::tempdir().unwrap();
     let (_daemons, conf) = start_cluster(cluster.path(), &bins);
-    ok(d, &["-q", "plan", cfg, "--input", "box.ply", "--out", "splan", "--grid", "2,2,1"]);
+    ok(
+        d,
+        &[
+            "-q", "plan", cfg, "--input", "box.ply", "--out", "splan", "--grid", "2,2,1",
+        ],
+    );
     let out = Command::new("sbatch")
         .current_dir(d)
         .env("SLURM_CONF", &conf)
@@ -192,7 +212,10 @@ fn a_plan_runs_as_a_slurm_job_array_and_with_xargs() {
         cluster.path().display()
     );
     for t in 0..4 {
-        assert!(d.join(format!("splan/logs/tile-{t}.log")).exists(), "no log of task {t}");
+        assert!(
+            d.join(format!("splan/logs/tile-{t}.log")).exists(),
+            "no log of task {t}"
+        );
     }
     ok(d, &["-q", "merge", "splan", "--out", "merged-slurm"]);
     let (se, sc) = features(&d.join("merged-slurm"));

@@ -239,6 +239,9 @@ pub fn read(path: &Path, opts: &ReadOptions) -> Result<Cloud> {
     Ok(cloud)
 }
 
+/// The receiver of [`stream_positions`]: the index of a chunk's first point and the chunk.
+pub type PositionSink<'a> = dyn FnMut(u64, &[[f64; 3]]) -> Result<()> + Send + 'a;
+
 /// What [`stream_positions`] learnt of a file besides its points.
 #[derive(Debug, Clone)]
 pub struct Streamed {
@@ -256,11 +259,7 @@ pub struct Streamed {
 /// are read whole first (their readers hold the cloud), then handed over in chunks.
 /// Non-finite points follow `opts.non_finite`: refused with the first one's index, or
 /// skipped (the indices of the others stay those of the file).
-pub fn stream_positions(
-    path: &Path,
-    opts: &ReadOptions,
-    f: &mut (dyn FnMut(u64, &[[f64; 3]]) -> Result<()> + Send),
-) -> Result<Streamed> {
+pub fn stream_positions(path: &Path, opts: &ReadOptions, f: &mut PositionSink) -> Result<Streamed> {
     let mut next = 0u64;
     let mut dropped = 0u64;
     let mut finite: Vec<[f64; 3]> = Vec::new();

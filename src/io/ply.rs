@@ -566,7 +566,10 @@ pub(crate) fn stream_positions(
         f(&positions)?;
         done += chunk_def.count;
     }
-    Ok((n as u64, format!("PLY {} {}", header.encoding, header.version)))
+    Ok((
+        n as u64,
+        format!("PLY {} {}", header.encoding, header.version),
+    ))
 }
 
 /// Checks the header for names ply-rs-bw would merge without a word: it keeps elements and

@@ -101,7 +101,10 @@ fn load_tiles(plan: &Plan, dir: &Path) -> Result<Vec<TileState>> {
             if p.tile != t {
                 return Err(Error::Plan {
                     path,
-                    what: format!("holds tile {} where tile {t} belongs; run tile {t} again", p.tile),
+                    what: format!(
+                        "holds tile {} where tile {t} belongs; run tile {t} again",
+                        p.tile
+                    ),
                 });
             }
             Ok(TileState::Done(Box::new(p)))
@@ -240,8 +243,7 @@ fn same_edge(a: &Member, b: &Member) -> bool {
                 v[2] - along * m.dir[2],
             ]) <= tol
         };
-        if !(b.ends().iter().all(|&p| on_line(a, p)) && a.ends().iter().all(|&p| on_line(b, p)))
-        {
+        if !(b.ends().iter().all(|&p| on_line(a, p)) && a.ends().iter().all(|&p| on_line(b, p))) {
             return false;
         }
         let s = |p: [f64; 3]| dot(sub(p, a.edge.start), a.dir);
@@ -438,7 +440,8 @@ fn join(plan: &Plan, partials: &[Option<&Partial>]) -> Joined {
                 break;
             }
             if members[a].tile == members[b].tile
-                || (0..3).any(|k| boxes[b][0][k] > boxes[a][1][k] || boxes[a][0][k] > boxes[b][1][k])
+                || (0..3)
+                    .any(|k| boxes[b][0][k] > boxes[a][1][k] || boxes[a][0][k] > boxes[b][1][k])
             {
                 continue;
             }
@@ -504,9 +507,7 @@ fn merge_group(
         .enumerate()
         .filter(|(i, _)| group.contains(i))
         .map(|(_, m)| m)
-        .max_by(|a, b| {
-            dist(a.edge.start, a.edge.end).total_cmp(&dist(b.edge.start, b.edge.end))
-        })
+        .max_by(|a, b| dist(a.edge.start, a.edge.end).total_cmp(&dist(b.edge.start, b.edge.end)))
         .map_or(first.dir, |m| m.dir);
     let origin = first.edge.start;
     let s = |p: [f64; 3]| dot(sub(p, origin), axis);
@@ -658,9 +659,17 @@ fn merge_group(
     Some(EdgeOut {
         id,
         kind: EdgeKind::Sharp,
-        start: if closed_single { first.edge.start } else { start },
+        start: if closed_single {
+            first.edge.start
+        } else {
+            start
+        },
         end: if closed_single { first.edge.end } else { end },
-        direction: if closed_single { first.edge.direction } else { direction },
+        direction: if closed_single {
+            first.edge.direction
+        } else {
+            direction
+        },
         points: points.round() as usize,
         rms,
         corners,
@@ -683,7 +692,12 @@ fn chain(mut pieces: Vec<Vec<[f64; 3]>>, start: [f64; 3], end: [f64; 3]) -> Vec<
         let (k, flip) = pieces
             .iter()
             .enumerate()
-            .flat_map(|(k, p)| [(k, false, dist(p[0], tail)), (k, true, dist(p[p.len() - 1], tail))])
+            .flat_map(|(k, p)| {
+                [
+                    (k, false, dist(p[0], tail)),
+                    (k, true, dist(p[p.len() - 1], tail)),
+                ]
+            })
             .min_by(|a, b| a.2.total_cmp(&b.2))
             .map(|(k, f, _)| (k, f))
             .unwrap_or((0, false));
@@ -734,7 +748,10 @@ pub fn merge(plan_dir: &Path, opts: &MergeOptions) -> Result<MergeSummary> {
         tracing::warn!("tile {t} failed and is left out: {m}");
     }
     if !missing.is_empty() {
-        tracing::warn!("{} tiles are missing and left out: {missing:?}", missing.len());
+        tracing::warn!(
+            "{} tiles are missing and left out: {missing:?}",
+            missing.len()
+        );
     }
     let settings = crate::config::parse(&plan.config_text, &plan.config)?;
     let partials: Vec<Option<&Partial>> = states
@@ -750,7 +767,10 @@ pub fn merge(plan_dir: &Path, opts: &MergeOptions) -> Result<MergeSummary> {
     let done: Vec<usize> = (0..partials.len())
         .filter(|&t| partials[t].is_some())
         .collect();
-    let tile_names: Vec<String> = done.iter().map(|t| format!("rectified_{t:04}.ply")).collect();
+    let tile_names: Vec<String> = done
+        .iter()
+        .map(|t| format!("rectified_{t:04}.ply"))
+        .collect();
     let mut names: Vec<&str> = vec![
         "report.json",
         "features.ply",
@@ -959,9 +979,8 @@ fn stage_name(s: &str) -> Option<&'static str> {
 }
 
 fn put_json(path: &Path, value: &impl Serialize) -> Result<()> {
-    let text = crate::json::pretty(value)
-        .map_err(|e| Error::io(path, "cannot write", e.into()))?
-        + "\n";
+    let text =
+        crate::json::pretty(value).map_err(|e| Error::io(path, "cannot write", e.into()))? + "\n";
     io::write_atomic(path, |w| {
         w.write_all(text.as_bytes())
             .map_err(|e| Error::io(path, "cannot write", e))
@@ -997,7 +1016,12 @@ mod tests {
         let c = chain(pieces, [0.0, 0.0, 0.0], [3.0, 0.0, 0.0]);
         assert_eq!(
             c,
-            vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0], [3.0, 0.0, 0.0]]
+            vec![
+                [0.0, 0.0, 0.0],
+                [1.0, 0.0, 0.0],
+                [2.0, 0.0, 0.0],
+                [3.0, 0.0, 0.0]
+            ]
         );
     }
 }

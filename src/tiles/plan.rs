@@ -169,7 +169,12 @@ fn expected_counts(grid: &Grid, halo: f64, sample: &[[f64; 3]], points: u64) -> 
     let scale = points as f64 / sample.len().max(1) as f64;
     counts
         .into_iter()
-        .map(|[a, b]| [(a as f64 * scale).round() as u64, (b as f64 * scale).round() as u64])
+        .map(|[a, b]| {
+            [
+                (a as f64 * scale).round() as u64,
+                (b as f64 * scale).round() as u64,
+            ]
+        })
         .collect()
 }
 
@@ -315,10 +320,7 @@ pub fn make_plan(config_path: &Path, settings: &Settings, opts: &PlanOptions) ->
     let (halo, halo_rule) = match opts.halo {
         Some(h) if h.is_finite() && h >= 0.0 => (h, "given (--halo)".to_string()),
         Some(h) => {
-            return Err(usage(
-                "--halo",
-                format!("must be a length >= 0, got {h}"),
-            ));
+            return Err(usage("--halo", format!("must be a length >= 0, got {h}")));
         }
         None => (
             SCALE_REACH_SPACINGS * spacing + reach_radii * radius,
@@ -335,11 +337,7 @@ pub fn make_plan(config_path: &Path, settings: &Settings, opts: &PlanOptions) ->
     let tiles: Vec<Tile> = (0..grid.len())
         .map(|id| {
             let core = grid.core(id);
-            let mut halo_box = core;
-            for k in 0..3 {
-                halo_box[0][k] -= halo;
-                halo_box[1][k] += halo;
-            }
+            let halo_box = [core[0].map(|x| x - halo), core[1].map(|x| x + halo)];
             Tile {
                 id,
                 cell: grid.cell_of(id),
@@ -413,7 +411,8 @@ fn shell_quote(p: &Path) -> String {
 /// the plan's copy of the pipeline file; logs in `DIR/logs/`. Submit with `sbatch
 /// DIR/sbatch.sh` (add `--wait` to block until every task ended), then `sharpedge merge`.
 fn sbatch_script(plan: &Plan, dir: &Path, exe: &Path) -> Result<String> {
-    let dir = std::path::absolute(dir).map_err(|e| Error::io(dir, "cannot resolve the path of", e))?;
+    let dir =
+        std::path::absolute(dir).map_err(|e| Error::io(dir, "cannot resolve the path of", e))?;
     let most = plan.tiles.iter().map(|t| t.halo_points).max().unwrap_or(0);
     Ok(format!(
         "#!/bin/sh\n\

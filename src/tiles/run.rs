@@ -318,19 +318,11 @@ fn run_in_pool(
                 "tile {tile}: the halo {:.6} is narrower than this tile's scale needs, \
                  {halo_needed:.6} ({SCALE_REACH_SPACINGS} spacings of {:.6} + (1 + corners.reach \
                  + edges.band) radii of {:.6}); make the plan again with --halo {:.6} or more",
-                plan.halo,
-                s.spacing,
-                s.radius,
-                halo_needed
+                plan.halo, s.spacing, s.radius, halo_needed
             ),
         });
     }
-    let count = |v: &[bool]| {
-        v.iter()
-            .zip(&core)
-            .filter(|&(&a, &c)| a && c)
-            .count() as u64
-    };
+    let count = |v: &[bool]| v.iter().zip(&core).filter(|&(&a, &c)| a && c).count() as u64;
     let counts = CoreCounts {
         points: core_points,
         candidates: count(&outcome.features.candidate),

@@ -36,7 +36,10 @@ pub fn ok(cwd: &Path, args: &[&str]) {
 pub fn config(dir: &Path, reach: f64) -> PathBuf {
     let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/pipeline.toml"))
         .expect("read pipeline.toml");
-    assert!(text.contains("\nreach = 25.0\n"), "pipeline.toml's corners.reach moved");
+    assert!(
+        text.contains("\nreach = 25.0\n"),
+        "pipeline.toml's corners.reach moved"
+    );
     let text = text.replace("\nreach = 25.0\n", &format!("\nreach = {reach:?}\n"));
     let path = dir.join("pipeline.toml");
     std::fs::write(&path, text).expect("write config");
@@ -45,7 +48,10 @@ pub fn config(dir: &Path, reach: f64) -> PathBuf {
 
 /// Number of tiles of a plan.
 pub fn tile_count(plan: &Path) -> usize {
-    sharpedge::tiles::Plan::load(plan).expect("plan").tiles.len()
+    sharpedge::tiles::Plan::load(plan)
+        .expect("plan")
+        .tiles
+        .len()
 }
 
 /// Runs every tile of a plan with the binary, one after the other.
@@ -54,7 +60,15 @@ pub fn run_tiles(cwd: &Path, plan: &str) {
     for t in 0..tile_count(&cwd.join(plan)) {
         ok(
             cwd,
-            &["-q", "run", &config, "--plan", plan, "--tile", &t.to_string()],
+            &[
+                "-q",
+                "run",
+                &config,
+                "--plan",
+                plan,
+                "--tile",
+                &t.to_string(),
+            ],
         );
     }
 }
