@@ -468,12 +468,12 @@ fn join(plan: &Plan, partials: &[Option<&Partial>]) -> Joined {
         let id = edges.len();
         let tiles: std::collections::BTreeSet<usize> =
             group.iter().map(|&i| members[i].tile).collect();
-        if tiles.len() > 1 {
-            joined += 1;
-        }
         let Some(edge) = merge_group(group, &members, &corner_map, &corners, id) else {
             continue;
         };
+        if tiles.len() > 1 {
+            joined += 1;
+        }
         for &i in group {
             edge_map[members[i].tile][members[i].edge.id] = Some(id);
         }
