@@ -47,6 +47,10 @@ use crate::stages::convexity::Votes;
 /// Members closer to parallel than this are candidates for one edge.
 const PARALLEL_DEG: f64 = 5.0;
 
+/// An edge end without a corner takes a corner this many radii away on its line (the
+/// segment stage's `vertex_reach` is 5).
+const SNAP_RADII: f64 = 3.0;
+
 /// Options of [`merge`].
 #[derive(Debug, Clone)]
 pub struct MergeOptions {
@@ -479,6 +483,48 @@ fn join(plan: &Plan, partials: &[Option<&Partial>]) -> Joined {
         }
         edges.push(edge);
     }
+    // Groups that became the same edge (a stretch that no tile reported split a long edge
+    // in two, and both halves were continued to the same corners) are one edge.
+    let mut same: Vec<Option<usize>> = vec![None; edges.len()];
+    for j in 0..edges.len() {
+        let close = |a: [f64; 3], b: [f64; 3]| dist(a, b) <= 1e-9 * (1.0 + norm(a));
+        let dup = (0..j).find(|&i| {
+            same[i].is_none()
+                && edges[i].polyline.len() == 2
+                && edges[j].polyline.len() == 2
+                && ((close(edges[i].start, edges[j].start) && close(edges[i].end, edges[j].end))
+                    || (close(edges[i].start, edges[j].end) && close(edges[i].end, edges[j].start)))
+        });
+        same[j] = dup;
+    }
+    if same.iter().any(Option::is_some) {
+        let mut renumber = vec![0usize; edges.len()];
+        let mut kept: Vec<EdgeOut> = Vec::new();
+        for (j, e) in std::mem::take(&mut edges).into_iter().enumerate() {
+            match same[j] {
+                Some(i) => {
+                    let target = renumber[i];
+                    renumber[j] = target;
+                    let k = &mut kept[target];
+                    k.points += e.points;
+                    k.rectified.extend(e.rectified);
+                }
+                None => {
+                    renumber[j] = kept.len();
+                    let mut e = e;
+                    e.id = kept.len();
+                    kept.push(e);
+                }
+            }
+        }
+        edges = kept;
+        for m in edge_map.iter_mut().flatten() {
+            if let Some(id) = m {
+                *id = renumber[*id];
+            }
+        }
+        joined = joined.min(edges.len());
+    }
     // Corners list the edges that end at them.
     link_corners(&edges, &mut corners);
     for c in &mut corners {
@@ -595,7 +641,8 @@ fn merge_group(
     // their corners.
     if all_straight && !closed_single {
         let tol = group.iter().map(|&i| members[i].gap).fold(0.0, f64::max);
-        let beyond = |from: [f64; 3], other: [f64; 3]| -> Option<usize> {
+        // The nearest corner on the line beyond `from` (away from `other`), up to `reach`.
+        let beyond = |from: [f64; 3], other: [f64; 3], reach: f64| -> Option<usize> {
             let d = sub(from, other);
             let l = norm(d);
             if l == 0.0 {
@@ -612,19 +659,29 @@ fn merge_group(
                         v[1] - along * u[1],
                         v[2] - along * u[2],
                     ]);
-                    (along > 0.0 && lateral <= tol).then_some((along, c.id))
+                    (along > -tol && along <= reach && lateral <= tol).then_some((along, c.id))
                 })
                 .min_by(|a, b| a.0.total_cmp(&b.0))
                 .map(|(_, id)| id)
         };
-        if start_end.1 > 0.0
-            && let Some(c) = beyond(start, end)
+        // A cut end goes to the corner beyond however far; an end its owner left without a
+        // corner takes one within `SNAP_RADII` radii on its line (the tile's vertex search
+        // missed what the untiled run's found).
+        let reach = |trust: f64| {
+            if trust > 0.0 {
+                f64::INFINITY
+            } else {
+                SNAP_RADII * tol
+            }
+        };
+        if start_corner.is_none()
+            && let Some(c) = beyond(start, end, reach(start_end.1))
         {
             start = corners[c].position;
             start_corner = Some(c);
         }
-        if end_end.1 > 0.0
-            && let Some(c) = beyond(end, start)
+        if end_corner_id.is_none()
+            && let Some(c) = beyond(end, start, reach(end_end.1))
         {
             end = corners[c].position;
             end_corner_id = Some(c);
