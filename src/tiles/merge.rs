@@ -22,7 +22,10 @@
 //! each end comes from the tile that saw it with its whole halo. A straight edge is the
 //! segment between those ends; a curved one the members' polylines, each clipped to its own
 //! tile's region, chained end to end. Its rectified edge points are each member's points in
-//! its own tile's region.
+//! its own tile's region. Where no tile owning an end reported the edge (a run judged
+//! differently next to a tile's read box), the cut end is continued along the line to the
+//! corner beyond it; an end left without a corner takes one within `SNAP_RADII` radii on its
+//! line; groups that became the same segment are one edge.
 //!
 //! Corners: a tile's corner is kept when the tile owns its position; one that no tile kept
 //! (the tiles' fits of a corner on a seam fell on either side of it) is kept once, from the
