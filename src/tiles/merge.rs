@@ -521,10 +521,8 @@ fn join(plan: &Plan, partials: &[Option<&Partial>]) -> Joined {
             }
         }
         edges = kept;
-        for m in edge_map.iter_mut().flatten() {
-            if let Some(id) = m {
-                *id = renumber[*id];
-            }
+        for id in edge_map.iter_mut().flatten().flatten() {
+            *id = renumber[*id];
         }
         joined = joined.min(edges.len());
     }
