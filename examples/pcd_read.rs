@@ -7,6 +7,10 @@
 //! PCL writes `PointXYZRGB`).
 //! `pcd_read read FILE`: reads FILE with `sharpedge::io::read` and prints
 //! `seconds points peak_rss_mb`.
+//! `pcd_read lzf FILE`: decompresses the LZF body of the binary_compressed FILE with the
+//! `lzf` crate and with sharpedge's decoder, alternating, 5 times each, and prints each one's
+//! median and best seconds (both into a new buffer of the whole body, as a whole-file read
+//! does).
 
 use std::path::Path;
 use std::time::Instant;
@@ -100,6 +104,37 @@ fn generate(dir: &Path, n: usize) -> Result<(), Box<dyn std::error::Error>> {
     Ok(())
 }
 
+/// The `lzf` crate against sharpedge's LZF decoder on the body of a binary_compressed file.
+fn lzf_race(path: &Path) -> Result<(), Box<dyn std::error::Error>> {
+    let bytes = std::fs::read(path)?;
+    let mark = b"DATA binary_compressed\n";
+    let at = bytes
+        .windows(mark.len())
+        .position(|w| w == mark)
+        .ok_or("not a binary_compressed PCD file")?
+        + mark.len();
+    let size = |o: usize| -> Result<usize, Box<dyn std::error::Error>> {
+        Ok(u32::from_le_bytes(bytes[o..o + 4].try_into()?) as usize)
+    };
+    let (c, u) = (size(at)?, size(at + 4)?);
+    let data = &bytes[at + 8..at + 8 + c];
+    let (mut krate, mut ours) = (Vec::new(), Vec::new());
+    for _ in 0..5 {
+        let t = Instant::now();
+        let a = lzf::decompress(data, u).map_err(|e| format!("lzf: {e}"))?;
+        krate.push(t.elapsed().as_secs_f64());
+        let t = Instant::now();
+        let b = io::lzf_decompress(data, u)?;
+        ours.push(t.elapsed().as_secs_f64());
+        assert!(a == b, "the decoders disagree");
+    }
+    for (name, mut t) in [("lzf crate", krate), ("sharpedge", ours)] {
+        t.sort_by(f64::total_cmp);
+        println!("{name:10} median {:.3} s, best {:.3} s", t[2], t[0]);
+    }
+    Ok(())
+}
+
 /// Peak resident memory of this process in MB (Linux: VmHWM).
 fn peak_rss_mb() -> f64 {
     std::fs::read_to_string("/proc/self/status")
@@ -124,6 +159,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             println!("{s:.3} {} {:.0}", cloud.len(), peak_rss_mb());
             Ok(())
         }
-        _ => Err("usage: pcd_read gen DIR N | pcd_read read FILE".into()),
+        Some("lzf") if args.len() == 3 => lzf_race(Path::new(&args[2])),
+        _ => Err("usage: pcd_read gen DIR N | pcd_read read FILE | pcd_read lzf FILE".into()),
     }
 }

@@ -303,7 +303,7 @@ pub struct BenchArgs {
     /// structured-light grid or views, sometimes a density gradient or incidence noise) are
     /// drawn from --seed; each case prints its own seed and the `sharpedge synth` command that
     /// makes its scan alone, and a summary row aggregates them.
-    #[arg(long, value_name = "N", conflicts_with_all = ["cases", "patterns", "cad"])]
+    #[arg(long, value_name = "N", conflicts_with_all = ["patterns", "cad"])]
     pub random: Option<usize>,
     /// With --random: scan every part uniformly (the same parts, points, noise and rounding as
     /// without it; no pattern, gradient or incidence noise drawn).
@@ -321,7 +321,8 @@ pub struct BenchArgs {
     #[arg(long, conflicts_with = "cases")]
     pub cad: bool,
     /// Cases to run, comma-separated (default: all): box, lblock, step, wedge, prism6,
-    /// prism8, pyramid, sphere, box-noise0.5, box-noise1.0, box-30k, box-far, fandisk, anchor.
+    /// prism8, pyramid, sphere, box-noise0.5, box-noise1.0, box-30k, box-far, fandisk, anchor;
+    /// with --random the drawn cases' names (r000, r007, ...): the same draws, only those run.
     #[arg(long, value_delimiter = ',')]
     pub cases: Option<Vec<String>>,
     /// Pipeline file (default: the built-in defaults, the same as pipeline.toml's).

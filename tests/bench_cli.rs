@@ -579,12 +579,36 @@ fn random_parts_are_scanned_in_drawn_patterns_and_reproduce_alone() {
     assert_eq!(truth["points"], c["points"], "{cmd}");
 }
 
+/// `--random N --cases rNNN` reruns one drawn case alone (the same draw as in the whole run);
+/// a name outside the draw is refused with the drawn range.
 #[test]
-fn random_and_cases_do_not_go_together() {
+fn random_cases_are_selected_by_name() {
     let dir = tempfile::tempdir().unwrap();
-    let (ok, _, err) = bench(&["--random", "2", "--cases", "box"], dir.path());
+    let args = [
+        "--random",
+        "3",
+        "--points",
+        "30000",
+        "--seed",
+        "2",
+        "--uniform",
+    ];
+    let (_, all) = bench_ok(&args, dir.path(), "all.json");
+    let mut one_args = args.to_vec();
+    one_args.extend(["--cases", "r002"]);
+    let (_, one) = bench_ok(&one_args, dir.path(), "one.json");
+    let cases = one["cases"].as_array().unwrap();
+    assert_eq!(cases.len(), 1);
+    assert_eq!(cases[0]["name"], "r002");
+    assert_eq!(cases[0]["params"], all["cases"][2]["params"]);
+    assert_eq!(cases[0]["corners"], all["cases"][2]["corners"]);
+
+    let (ok, _, err) = bench(&["--random", "2", "--cases", "r005"], dir.path());
     assert!(!ok);
-    assert!(err.contains("--random") && err.contains("--cases"), "{err}");
+    assert!(
+        err.contains("no random case named 'r005'") && err.contains("r000..r001"),
+        "{err}"
+    );
 }
 
 /// The checks of a scored case with their values: the four detection checks are present and

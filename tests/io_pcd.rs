@@ -1,8 +1,10 @@
 //! Reading PCD (issue 16): every encoding of a hand-made organised frame with every kind of
 //! field gives the same cloud (positions, typed attributes, packed colour split, COUNT > 1,
 //! padding dropped, NaN slots skipped, grid positions and the VIEWPOINT pose); an old v0.5
-//! header; the non-finite policy on unorganised NaN points; and the real RGB-D frame against
-//! its PLY copy in ../shared/data/rgbd.
+//! header; the non-finite policy on unorganised NaN points (a dropped point is written back as
+//! it was); a body of many decoding chunks, with one thread and two; 64-bit integer fields
+//! read and written back byte for byte; and the real RGB-D frame against its PLY copy in
+//! ../shared/data/rgbd.
 
 mod pcd_common;
 
@@ -199,4 +201,115 @@ fn a_truncated_binary_body_is_named_on_the_chunked_path_too() {
             ),
         "{e}"
     );
+}
+
+/// The binary_compressed reader decodes in chunks, in a second thread when the pool has two:
+/// a body of many chunks reads as its binary and ascii copies do, with one thread and two;
+/// 64-bit integers are read (as f64, exact below 2^53).
+#[test]
+fn a_big_compressed_body_reads_as_binary_and_ascii_do() {
+    let dir = tempfile::tempdir().unwrap();
+    let n = 60_000;
+    let cloud = big_cloud(n);
+    let mut got = Vec::new();
+    for data in ["binary", "binary_compressed", "ascii"] {
+        let p = dir.path().join(format!("{data}.pcd"));
+        write(&p, &cloud.with_data(data));
+        for threads in [1, 2] {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            let c = pool.install(|| read(&p)).unwrap();
+            got.push((format!("{data}, {threads} threads"), c));
+        }
+    }
+    let (_, first) = &got[0];
+    assert_eq!(first.len(), n);
+    for i in [0, 1, 777, n - 1] {
+        assert_eq!(first.positions[i], cloud.xyz(i).map(f64::from), "point {i}");
+    }
+    let f64s = |name: &str| match col(first, name) {
+        Column::F64(v) => v.clone(),
+        other => panic!("{name}: {other:?}"),
+    };
+    let stamp = f64s("stamp");
+    let id = f64s("id");
+    for i in [0, 5, 59_999] {
+        assert_eq!(stamp[i], (-(i as i64) * 1_000_000_007) as f64);
+        assert_eq!(id[i], ((1u64 << 52) + (i / 3) as u64) as f64);
+    }
+    assert_eq!(
+        col(first, "ring"),
+        &Column::U8((0..n).map(|i| (i % 32) as u8).collect())
+    );
+    assert_eq!(f64s("normal_2")[11], 2.0 * 0.125 - 2.0);
+    for (what, c) in &got[1..] {
+        assert_eq!(c.positions, first.positions, "{what}");
+        assert_eq!(c.attributes, first.attributes, "{what}");
+    }
+}
+
+/// 64-bit integer fields come back byte for byte in a PCD output, in every encoding.
+#[test]
+fn sixty_four_bit_integers_round_trip() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut cloud = big_cloud(500);
+    // Values f64 cannot hold: the output must still have them exactly.
+    let o = cloud.offset("id");
+    let ps = cloud.point_size();
+    cloud.records[3 * ps + o..3 * ps + o + 8].copy_from_slice(&u64::MAX.to_le_bytes());
+    let o = cloud.offset("stamp");
+    cloud.records[4 * ps + o..4 * ps + o + 8].copy_from_slice(&(i64::MIN + 1).to_le_bytes());
+    for data in ["binary", "binary_compressed", "ascii"] {
+        let input = cloud.with_data(data);
+        let p = dir.path().join(format!("{data}.pcd"));
+        write(&p, &input);
+        let (c, original) =
+            io::read_for_output(&p, &ReadOptions::default(), io::CloudFormat::Pcd).unwrap();
+        let Some(io::Original::Pcd(pcd)) = original else {
+            panic!("no PcdFile");
+        };
+        let out = dir.path().join(format!("{data}-out.pcd"));
+        io::write_pcd(&out, &pcd, &c.positions, &vec![false; c.len()]).unwrap();
+        assert_eq!(pcd_common::read(&out), input, "{data}");
+    }
+}
+
+/// A point `input.non_finite = "drop"` took out of the cloud keeps its slot and its original
+/// bytes in a PCD output, while the points around it move.
+#[test]
+fn a_dropped_point_is_written_back_as_it_was() {
+    let dir = tempfile::tempdir().unwrap();
+    let flat = every_field_frame().unorganised(|_| true);
+    for data in ["binary", "binary_compressed", "ascii"] {
+        let input = flat.with_data(data);
+        let p = dir.path().join(format!("{data}.pcd"));
+        write(&p, &input);
+        let drop = ReadOptions {
+            non_finite: NonFinite::Drop,
+        };
+        let (c, original) = io::read_for_output(&p, &drop, io::CloudFormat::Pcd).unwrap();
+        let Some(io::Original::Pcd(pcd)) = original else {
+            panic!("no PcdFile");
+        };
+        assert_eq!(c.len(), 10, "{data}");
+        let moved: Vec<[f64; 3]> = c
+            .positions
+            .iter()
+            .map(|p| [p[0] + 1.0, p[1], p[2]])
+            .collect();
+        let out = dir.path().join(format!("{data}-out.pcd"));
+        io::write_pcd(&out, &pcd, &moved, &vec![true; c.len()]).unwrap();
+        let back = pcd_common::read(&out);
+        assert_eq!(back.points(), 12, "{data}");
+        for i in 0..12 {
+            if i == 5 || i == 10 {
+                assert_eq!(back.record(i), input.record(i), "{data}: dropped slot {i}");
+                assert!(back.xyz(i).iter().all(|v| v.is_nan()));
+            } else {
+                assert_eq!(back.xyz(i)[0], input.xyz(i)[0] + 1.0, "{data}: slot {i}");
+            }
+        }
+    }
 }

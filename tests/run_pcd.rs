@@ -268,7 +268,7 @@ fn unknown_type_size_pairs() {
     assert_rejected(
         header_text(&p, 12).as_bytes(),
         &[
-            "field `intensity` has TYPE U SIZE 3, which is no PCD type (sharpedge reads I 1, I 2, I 4, U 1, U 2, U 4, F 4, F 8)",
+            "field `intensity` has TYPE U SIZE 3, which is no PCD type (sharpedge reads I 1, I 2, I 4, I 8, U 1, U 2, U 4, U 8, F 4, F 8)",
         ],
     );
     let mut p = small();

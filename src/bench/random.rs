@@ -117,6 +117,28 @@ fn draw_pattern(rng: &mut SmallRng) -> ScanPattern {
     scan
 }
 
+/// The cases named in `names` (`r007`, ...), in the order drawn; all of them without names.
+/// A name that is not among the drawn cases is an error naming the drawn range.
+pub fn select(cases: Vec<Case>, names: Option<&[String]>) -> Result<Vec<Case>> {
+    let Some(names) = names else {
+        return Ok(cases);
+    };
+    if let Some(bad) = names.iter().find(|n| !cases.iter().any(|c| &c.name == *n)) {
+        return Err(Error::Usage {
+            option: "--cases".into(),
+            message: format!(
+                "no random case named '{bad}': --random {} draws r000..r{:03}",
+                cases.len(),
+                cases.len().saturating_sub(1)
+            ),
+        });
+    }
+    Ok(cases
+        .into_iter()
+        .filter(|c| names.contains(&c.name))
+        .collect())
+}
+
 /// The N random cases of a bench run.
 pub fn cases(n: usize, seed: u64, cap: usize, patterns: bool) -> Vec<Case> {
     (0..n)

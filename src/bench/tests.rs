@@ -863,9 +863,19 @@ fn cad_and_pattern_verdicts() {
     assert!(corners.iter().all(|c| c.pass && c.value == Some(1.0)));
     assert!(c.iter().all(|c| c.pass), "{c:?}");
     assert!(!c.iter().any(|c| c.name.contains("oracle")));
-    // The same empty corners on a random part: undefined, a failure.
+    // The same on a random part scanned in a pattern (one view of a box across one edge):
+    // nothing to require, nothing to compare with the oracle.
+    let c = checks(Kind::Random, false, &r);
+    let corners: Vec<&Check> = c.iter().filter(|c| c.name.starts_with("corner")).collect();
+    assert!(corners.iter().all(|c| c.pass && c.value == Some(1.0)));
+    let oracle = c.iter().find(|c| c.name.contains("oracle")).unwrap();
+    assert_eq!((oracle.value, oracle.pass), (Some(1.0), true));
+    // A required corner that was not found is no vacuous pass.
+    r.corners.as_mut().unwrap().truth = 1;
     let c = checks(Kind::Random, false, &r);
     assert!(!c.iter().find(|c| c.name == "corner recall").unwrap().pass);
+    assert!(!c.iter().find(|c| c.name.contains("oracle")).unwrap().pass);
+    r.corners.as_mut().unwrap().truth = 0;
     r.border = Some(BorderMetrics {
         border_points: 100,
         found_on_border_h: 0.5,

@@ -25,10 +25,12 @@ pub mod mesh;
 
 mod crs;
 mod e57;
+mod e57_packets;
 mod geojson;
 mod las;
 mod las_check;
 mod las_write;
+mod lzf_stream;
 pub mod output_set;
 mod pcd;
 mod ply;
@@ -453,6 +455,14 @@ fn apply_non_finite(cloud: &mut Cloud, policy: NonFinite) -> Result<()> {
             Ok(())
         }
     }
+}
+
+/// Decompresses an LZF buffer to exactly `size` bytes with sharpedge's own decoder (the one
+/// PCD `binary_compressed` bodies go through). For the benchmark that measures it against
+/// the `lzf` crate (examples/pcd_read.rs); not part of the supported API.
+#[doc(hidden)]
+pub fn lzf_decompress(input: &[u8], size: usize) -> std::result::Result<Vec<u8>, String> {
+    lzf_stream::decompress(input, size).map_err(|e| e.to_string())
 }
 
 /// Reads a PLY file's vertices with ply-rs-bw's typed path only, never the hand-written

@@ -20,23 +20,30 @@
 //! Decoder: own, not pcd-rs. pcd-rs 0.13's `DynReader` builds a `Vec<Field>` of `Vec`s per
 //! point: on the 10,000,000-point `x y z rgb` files of scripts/bench_read_pcd.sh (/dev/shm,
 //! release) it read `binary` in 10.5 s and `binary_compressed` in 6.9 s; this decoder reads
-//! them in 0.14–0.22 s and 0.56–0.71 s (binary PLY of the same points 0.15–0.22 s, PCL 1.13's
-//! loadPCDFile 0.36–0.40 s and 0.87–0.89 s). A `binary` body is read in chunks of about 1 MB
-//! and decoded while hot (no buffer of the whole file); a `binary_compressed` body is
-//! decompressed whole by the `lzf` crate (0.26 s of the 0.56 s: a decoder of our own copying
-//! runs with `extend_from_within` took 0.30 s, so the crate stays), then its field blocks are
-//! decoded. Every size in the header is checked against the file's length before anything is
-//! allocated, so a lying header gives an error, never an allocation the file cannot back.
+//! them in 0.14–0.22 s and (on a machine busy with other builds) 1.2–1.4 s, where binary PLY
+//! of the same points took 0.15–0.22 s (0.60-0.74 s in the busy run) and PCL 1.13's
+//! loadPCDFile 0.36–0.40 s and 0.87–0.89 s (2.8 s busy). A `binary` body is read in chunks of
+//! about 1 MB and decoded while hot (no buffer of the whole file). A `binary_compressed`
+//! body is read 1 MB at a time and decoded by our own LZF decoder (src/io/lzf_stream.rs;
+//! 0.65 s for the 160 MB body where the `lzf` crate takes 0.94 s, `examples/pcd_read lzf`)
+//! 256 KB at a time, each piece converted into the cloud's columns while it is in the cache,
+//! in a second thread while this one converts when the pool has two (slightly faster than
+//! one thread: medians of 5 busy runs 1.08 s against 1.14 s); no buffer of the whole body (peak
+//! 263 MB where the whole body made it 413 MB). For a PCD output (the records kept) the body
+//! is decompressed whole by the same decoder. Every size in the header is checked against
+//! the file's length before anything is allocated, so a lying header gives an error, never
+//! an allocation the file cannot back.
 
 use std::fmt::Write as _;
 use std::path::Path;
 
-use super::{Loaded, PropertyInfo, attribute};
+use super::lzf_stream::{self, LzfError};
+use super::{Loaded, PropertyInfo};
 use crate::cloud::{Attribute, Cloud, Column, Pose, Scan, ScanStructure, Source};
 use crate::error::{Error, Result};
 
 /// The type/size pairs PCD defines, for error messages.
-const PCD_TYPES: &str = "I 1, I 2, I 4, U 1, U 2, U 4, F 4, F 8";
+const PCD_TYPES: &str = "I 1, I 2, I 4, I 8, U 1, U 2, U 4, U 8, F 4, F 8";
 
 /// LZF's best case: a back reference of 264 bytes costs 3 bytes. A decompressed size beyond
 /// this many times the compressed one cannot be real data.
@@ -452,7 +459,7 @@ fn parse_header(path: &Path, bytes: &[u8]) -> Result<Header> {
     for (((name, size), kind), count) in names.into_iter().zip(sizes).zip(kinds).zip(counts) {
         let ok = matches!(
             (kind, size),
-            (Kind::I | Kind::U, 1 | 2 | 4) | (Kind::F, 4 | 8)
+            (Kind::I | Kind::U, 1 | 2 | 4 | 8) | (Kind::F, 4 | 8)
         );
         if !ok {
             return Err(malformed(
@@ -580,10 +587,17 @@ fn read_body(path: &Path, h: &Header, bytes: Vec<u8>) -> Result<Body> {
     }
 }
 
-fn read_compressed(path: &Path, h: &Header, bytes: &[u8]) -> Result<Body> {
-    let at = h.data_start;
-    let place = format!("byte {at}");
-    let Some(sizes) = bytes.get(at..at + 8) else {
+/// Checks the compressed and uncompressed sizes of a `binary_compressed` body (`sizes`: the
+/// 8 bytes after the header, `None` when the file ends before them; `available`: the bytes
+/// of the file after them) against the header and the file, before anything is allocated.
+fn compressed_sizes(
+    path: &Path,
+    h: &Header,
+    sizes: Option<&[u8]>,
+    available: u64,
+) -> Result<(usize, usize)> {
+    let place = format!("byte {}", h.data_start);
+    let Some(&[c0, c1, c2, c3, u0, u1, u2, u3]) = sizes else {
         return Err(malformed(
             path,
             place,
@@ -591,10 +605,9 @@ fn read_compressed(path: &Path, h: &Header, bytes: &[u8]) -> Result<Body> {
              of binary_compressed data",
         ));
     };
-    let compressed = u32::from_le_bytes([sizes[0], sizes[1], sizes[2], sizes[3]]) as usize;
-    let uncompressed = u32::from_le_bytes([sizes[4], sizes[5], sizes[6], sizes[7]]) as usize;
-    let available = bytes.len() - at - 8;
-    if compressed > available {
+    let compressed = u32::from_le_bytes([c0, c1, c2, c3]) as usize;
+    let uncompressed = u32::from_le_bytes([u0, u1, u2, u3]) as usize;
+    if compressed as u64 > available {
         return Err(malformed(
             path,
             place,
@@ -617,13 +630,6 @@ fn read_compressed(path: &Path, h: &Header, bytes: &[u8]) -> Result<Body> {
             ),
         ));
     }
-    if uncompressed == 0 {
-        return Ok(Body {
-            buf: Vec::new(),
-            start: 0,
-            layout: Layout::Blocks,
-        });
-    }
     if uncompressed as u64 > (compressed as u64).saturating_mul(LZF_MAX_RATIO) {
         return Err(malformed(
             path,
@@ -634,25 +640,31 @@ fn read_compressed(path: &Path, h: &Header, bytes: &[u8]) -> Result<Body> {
             ),
         ));
     }
-    let data = &bytes[at + 8..at + 8 + compressed];
-    let buf = lzf::decompress(data, uncompressed).map_err(|e| {
-        malformed(
-            path,
-            format!("byte {}", at + 8),
-            format!("the LZF data is damaged ({e})"),
-        )
-    })?;
-    if buf.len() != uncompressed {
-        return Err(malformed(
-            path,
-            format!("byte {}", at + 8),
-            format!(
-                "the LZF data decompresses to {} bytes, the header says {uncompressed}: the \
-                 data is damaged or the sizes are wrong",
-                buf.len()
-            ),
-        ));
+    Ok((compressed, uncompressed))
+}
+
+/// The error of a damaged LZF body whose sizes start at `at`.
+fn lzf_damaged(path: &Path, at: usize, e: &LzfError) -> Error {
+    malformed(
+        path,
+        format!("byte {}", at as u64 + 8 + e.at),
+        format!("the LZF data is damaged: {}", e.what),
+    )
+}
+
+fn read_compressed(path: &Path, h: &Header, bytes: &[u8]) -> Result<Body> {
+    let at = h.data_start;
+    let available = bytes.len().saturating_sub(at + 8) as u64;
+    let (compressed, uncompressed) = compressed_sizes(path, h, bytes.get(at..at + 8), available)?;
+    if uncompressed == 0 {
+        return Ok(Body {
+            buf: Vec::new(),
+            start: 0,
+            layout: Layout::Blocks,
+        });
     }
+    let data = &bytes[at + 8..at + 8 + compressed];
+    let buf = lzf_stream::decompress(data, uncompressed).map_err(|e| lzf_damaged(path, at, &e))?;
     Ok(Body {
         buf,
         start: 0,
@@ -772,6 +784,8 @@ fn read_ascii(path: &Path, h: &Header, bytes: &[u8]) -> Result<Body> {
                     (Kind::U, 1) => put!(u8),
                     (Kind::U, 2) => put!(u16),
                     (Kind::U, 4) => put!(u32),
+                    (Kind::I, 8) => put!(i64),
+                    (Kind::U, 8) => put!(u64),
                     (Kind::F, 4) if is_colour_integer(field, tok) => put!(u32),
                     (Kind::F, 4) => put!(f32),
                     _ => put!(f64),
@@ -841,31 +855,55 @@ fn column(h: &Header, body: &Body, f: usize, k: usize, slots: &Slots) -> Option<
         (Kind::U, 1) => Column::U8(gather(b, base, stride, slots, u8::from_le_bytes)),
         (Kind::U, 2) => Column::U16(gather(b, base, stride, slots, u16::from_le_bytes)),
         (Kind::U, 4) => Column::U32(gather(b, base, stride, slots, u32::from_le_bytes)),
+        // 64-bit integers as f64 (the cloud has no 64-bit integer column): exact up to 2^53;
+        // a PCD output writes the stored bytes back, whatever their size.
+        (Kind::I, 8) => Column::F64(gather(b, base, stride, slots, |a| {
+            i64::from_le_bytes(a) as f64
+        })),
+        (Kind::U, 8) => Column::F64(gather(b, base, stride, slots, |a| {
+            u64::from_le_bytes(a) as f64
+        })),
         (Kind::F, 4) => Column::F32(gather(b, base, stride, slots, f32::from_le_bytes)),
         _ => Column::F64(gather(b, base, stride, slots, f64::from_le_bytes)),
     })
 }
 
-/// The attributes of every field but x, y, z and padding, in field order.
-fn attributes(path: &Path, h: &Header, body: &Body, slots: &Slots) -> Result<Vec<Attribute>> {
-    let mut out: Vec<Attribute> = Vec::new();
+/// Which part of a field an attribute column holds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Part {
+    /// Element `k` of the field (of its COUNT).
+    Element(usize),
+    /// Byte `b` of a packed colour (little-endian 0xAARRGGBB: blue is byte 0).
+    ColourByte(usize),
+}
+
+/// One attribute column of the cloud: its field, the part of it and its name.
+struct AttrSpec {
+    field: usize,
+    part: Part,
+    name: String,
+}
+
+/// The attribute columns of every field but x, y, z and padding, in field order: a packed
+/// colour gives red, green, blue (and alpha), a field of COUNT n gives name_0 … name_n-1.
+fn attribute_specs(path: &Path, h: &Header) -> Result<Vec<AttrSpec>> {
+    let mut out: Vec<AttrSpec> = Vec::new();
     for (f, field) in h.fields.iter().enumerate() {
         if field.is_padding() || matches!(field.name.as_str(), "x" | "y" | "z") {
             continue;
         }
         if field.is_packed_colour() {
-            // Little-endian 0xAARRGGBB: blue is the first byte.
-            let Some((base, stride)) = body.place(h, f) else {
-                continue;
-            };
             let names: &[(&str, usize)] = if field.name == "rgba" {
                 &[("red", 2), ("green", 1), ("blue", 0), ("alpha", 3)]
             } else {
                 &[("red", 2), ("green", 1), ("blue", 0)]
             };
             for &(name, byte) in names {
-                let v = gather(&body.buf, base + byte, stride, slots, |b: [u8; 1]| b[0]);
-                out.push(attribute(name, Column::U8(v)));
+                out.push(AttrSpec {
+                    field: f,
+                    part: Part::ColourByte(byte),
+                    name: name.into(),
+                });
             }
             continue;
         }
@@ -875,9 +913,11 @@ fn attributes(path: &Path, h: &Header, body: &Body, slots: &Slots) -> Result<Vec
             } else {
                 format!("{}_{k}", field.name)
             };
-            if let Some(values) = column(h, body, f, k, slots) {
-                out.push(Attribute { name, values });
-            }
+            out.push(AttrSpec {
+                field: f,
+                part: Part::Element(k),
+                name,
+            });
         }
     }
     for (i, a) in out.iter().enumerate() {
@@ -891,6 +931,32 @@ fn attributes(path: &Path, h: &Header, body: &Body, slots: &Slots) -> Result<Vec
                     a.name
                 ),
             ));
+        }
+    }
+    Ok(out)
+}
+
+/// The attributes of every field but x, y, z and padding, in field order.
+fn attributes(path: &Path, h: &Header, body: &Body, slots: &Slots) -> Result<Vec<Attribute>> {
+    let mut out = Vec::new();
+    for spec in attribute_specs(path, h)? {
+        let values = match spec.part {
+            Part::ColourByte(byte) => body.place(h, spec.field).map(|(base, stride)| {
+                Column::U8(gather(
+                    &body.buf,
+                    base + byte,
+                    stride,
+                    slots,
+                    |b: [u8; 1]| b[0],
+                ))
+            }),
+            Part::Element(k) => column(h, body, spec.field, k, slots),
+        };
+        if let Some(values) = values {
+            out.push(Attribute {
+                name: spec.name,
+                values,
+            });
         }
     }
     Ok(out)
@@ -1000,10 +1066,12 @@ const CHUNK_BYTES: usize = 1 << 20;
 /// Bytes read first for the header; a longer header makes the reader read the whole file.
 const HEAD_BYTES: u64 = 1 << 16;
 
-/// Reads a `binary` file's body chunk by chunk: no buffer of the whole file, and the
-/// records are decoded while they are hot in the cache. `None` when the header does not fit
-/// in the first [`HEAD_BYTES`] (the caller then reads the whole file).
-fn read_binary_chunked(path: &Path) -> Result<Option<(Header, Decoded)>> {
+/// Reads a `binary` or `binary_compressed` file's body in pieces, without a buffer of the
+/// whole file: `binary` records chunk by chunk, decoded while they are hot in the cache;
+/// `binary_compressed` through [`read_compressed_streamed`]. `None` when the header does not
+/// fit in the first [`HEAD_BYTES`] or the body is ascii (the caller then reads the whole
+/// file).
+fn read_streamed(path: &Path) -> Result<Option<(Header, Decoded)>> {
     use std::io::{Read, Seek, SeekFrom};
     let mut file = super::open(path)?;
     let file_len = file.metadata().map(|m| m.len()).unwrap_or(0);
@@ -1013,11 +1081,15 @@ fn read_binary_chunked(path: &Path) -> Result<Option<(Header, Decoded)>> {
         .read_to_end(&mut head)
         .map_err(|e| Error::io(path, "cannot read", e))?;
     let header = match parse_header(path, &head) {
-        Ok(h) if h.encoding == PcdEncoding::Binary => h,
+        Ok(h) if h.encoding != PcdEncoding::Ascii => h,
         Ok(_) => return Ok(None),
         Err(_) if (head.len() as u64) < file_len => return Ok(None),
         Err(e) => return Err(e),
     };
+    if header.encoding == PcdEncoding::BinaryCompressed {
+        let decoded = read_compressed_streamed(path, file, file_len, &header)?;
+        return Ok(Some((header, decoded)));
+    }
     let ps = header.point_size();
     let available = file_len.saturating_sub(header.data_start as u64);
     let need = (ps as u128) * (header.points as u128);
@@ -1057,14 +1129,444 @@ fn read_binary_chunked(path: &Path) -> Result<Option<(Header, Decoded)>> {
     Ok(Some((header, out)))
 }
 
+/// Output bytes of a `binary_compressed` body decoded at a time, after the window of earlier
+/// output that LZF back references reach: small enough to stay in the cache from decoding
+/// to converting.
+const LZF_CHUNK: usize = 256 << 10;
+
+/// Input bytes of a `binary_compressed` body read from the file at a time.
+const LZF_READ: usize = 1 << 20;
+
+/// Chunks a decoding thread may hand on before it waits for the converting one.
+const LZF_QUEUE: usize = 4;
+
+/// Where the values of one field's block (the `binary_compressed` layout) go.
+enum Target {
+    /// Coordinate `a` of the positions.
+    Axis(usize),
+    /// Bytes of a packed colour: (attribute, byte) pairs.
+    Colour(Vec<(usize, usize)>),
+    /// Element `k` to attribute `first + k`.
+    Elements(usize),
+}
+
+/// One non-padding field's block of a `binary_compressed` body: its byte range in the
+/// decompressed body, its value size and COUNT, and where its values go.
+struct Block {
+    start: u64,
+    end: u64,
+    kind: Kind,
+    size: usize,
+    count: usize,
+    target: Target,
+}
+
+/// The cloud's columns for every slot of the file, filled block by block as the body
+/// decodes: [`SlotSink::feed`] takes the decompressed bytes in order, in pieces of any size.
+struct SlotSink {
+    blocks: Vec<Block>,
+    /// The block being filled.
+    block: usize,
+    /// Offset in the decompressed body of the next value to convert.
+    at: u64,
+    /// The first bytes of a value split between two pieces.
+    carry: [u8; 8],
+    carried: usize,
+    positions: Vec<[f64; 3]>,
+    attributes: Vec<Attribute>,
+}
+
+/// Writes the little-endian values of `bytes` to `col` from index `i0` on.
+fn fill(col: &mut Column, i0: usize, bytes: &[u8]) {
+    macro_rules! fill {
+        ($v:expr, $t:ty) => {{
+            const N: usize = std::mem::size_of::<$t>();
+            for (d, ch) in $v[i0..].iter_mut().zip(bytes.chunks_exact(N)) {
+                let mut a = [0u8; N];
+                a.copy_from_slice(ch);
+                *d = <$t>::from_le_bytes(a);
+            }
+        }};
+    }
+    match col {
+        Column::I8(v) => fill!(v, i8),
+        Column::U8(v) => fill!(v, u8),
+        Column::I16(v) => fill!(v, i16),
+        Column::U16(v) => fill!(v, u16),
+        Column::I32(v) => fill!(v, i32),
+        Column::U32(v) => fill!(v, u32),
+        Column::F32(v) => fill!(v, f32),
+        Column::F64(v) => fill!(v, f64),
+    }
+}
+
+impl SlotSink {
+    /// Zeroed columns for the header's slots (pages the system maps when they are written).
+    fn new(path: &Path, h: &Header) -> Result<SlotSink> {
+        let n = h.points;
+        let specs = attribute_specs(path, h)?;
+        let mut attributes = Vec::with_capacity(specs.len());
+        for spec in &specs {
+            let field = &h.fields[spec.field];
+            let values = match (spec.part, field.kind, field.size) {
+                (Part::ColourByte(_), _, _) | (_, Kind::U, 1) => Column::U8(vec![0; n]),
+                (_, Kind::I, 1) => Column::I8(vec![0; n]),
+                (_, Kind::I, 2) => Column::I16(vec![0; n]),
+                (_, Kind::U, 2) => Column::U16(vec![0; n]),
+                (_, Kind::I, 4) => Column::I32(vec![0; n]),
+                (_, Kind::U, 4) => Column::U32(vec![0; n]),
+                (_, Kind::F, 4) => Column::F32(vec![0.0; n]),
+                _ => Column::F64(vec![0.0; n]),
+            };
+            attributes.push(Attribute {
+                name: spec.name.clone(),
+                values,
+            });
+        }
+        let mut blocks = Vec::new();
+        let mut start = 0u64;
+        for (f, field) in h.fields.iter().enumerate() {
+            if field.is_padding() {
+                continue;
+            }
+            let target = match field.name.as_str() {
+                "x" => Target::Axis(0),
+                "y" => Target::Axis(1),
+                "z" => Target::Axis(2),
+                _ if field.is_packed_colour() => Target::Colour(
+                    specs
+                        .iter()
+                        .enumerate()
+                        .filter(|(_, s)| s.field == f)
+                        .filter_map(|(i, s)| match s.part {
+                            Part::ColourByte(b) => Some((i, b)),
+                            Part::Element(_) => None,
+                        })
+                        .collect(),
+                ),
+                _ => Target::Elements(specs.iter().position(|s| s.field == f).unwrap_or(0)),
+            };
+            let end = start + (field.bytes() as u64) * (n as u64);
+            blocks.push(Block {
+                start,
+                end,
+                kind: field.kind,
+                size: field.size,
+                count: field.count,
+                target,
+            });
+            start = end;
+        }
+        Ok(SlotSink {
+            blocks,
+            block: 0,
+            at: 0,
+            carry: [0; 8],
+            carried: 0,
+            positions: vec![[0.0; 3]; n],
+            attributes,
+        })
+    }
+
+    /// Converts the next decompressed bytes of the body.
+    fn feed(&mut self, mut bytes: &[u8]) {
+        while !bytes.is_empty() && self.block < self.blocks.len() {
+            let b = &self.blocks[self.block];
+            let size = b.size;
+            let first = ((self.at - b.start) / size as u64) as usize;
+            let whole = if self.carried > 0 {
+                let take = (size - self.carried).min(bytes.len());
+                self.carry[self.carried..self.carried + take].copy_from_slice(&bytes[..take]);
+                self.carried += take;
+                bytes = &bytes[take..];
+                if self.carried < size {
+                    return;
+                }
+                self.carried = 0;
+                let value = self.carry;
+                Self::put(
+                    b,
+                    &mut self.positions,
+                    &mut self.attributes,
+                    first,
+                    &value[..size],
+                );
+                size
+            } else {
+                let left = usize::try_from(b.end - self.at).unwrap_or(usize::MAX);
+                let take = bytes.len().min(left);
+                let whole = take / size * size;
+                if whole == 0 {
+                    // Less than a value left in this piece: keep it for the next one.
+                    self.carry[..take].copy_from_slice(&bytes[..take]);
+                    self.carried = take;
+                    return;
+                }
+                let (now, rest) = bytes.split_at(whole);
+                Self::put(b, &mut self.positions, &mut self.attributes, first, now);
+                bytes = rest;
+                whole
+            };
+            self.at += whole as u64;
+            if self.at == b.end {
+                self.block += 1;
+            }
+        }
+    }
+
+    /// Converts whole values of block `b`, the first being value `first` of the block.
+    fn put(
+        b: &Block,
+        positions: &mut [[f64; 3]],
+        attributes: &mut [Attribute],
+        first: usize,
+        bytes: &[u8],
+    ) {
+        match &b.target {
+            Target::Axis(a) => {
+                let a = *a;
+                let dst = &mut positions[first..];
+                if b.size == 4 {
+                    for (p, ch) in dst.iter_mut().zip(bytes.chunks_exact(4)) {
+                        p[a] = f64::from(f32::from_le_bytes([ch[0], ch[1], ch[2], ch[3]]));
+                    }
+                } else {
+                    for (p, ch) in dst.iter_mut().zip(bytes.chunks_exact(8)) {
+                        let mut v = [0u8; 8];
+                        v.copy_from_slice(ch);
+                        p[a] = f64::from_le_bytes(v);
+                    }
+                }
+            }
+            Target::Colour(parts) => {
+                for &(attr, byte) in parts {
+                    if let Column::U8(v) = &mut attributes[attr].values {
+                        for (d, ch) in v[first..].iter_mut().zip(bytes.chunks_exact(4)) {
+                            *d = ch[byte];
+                        }
+                    }
+                }
+            }
+            Target::Elements(attr) if b.size == 8 && b.kind != Kind::F => {
+                // A 64-bit integer, as f64 (see `column`).
+                for (t, ch) in bytes.chunks_exact(8).enumerate() {
+                    let v = first + t;
+                    let mut a = [0u8; 8];
+                    a.copy_from_slice(ch);
+                    let x = if b.kind == Kind::I {
+                        i64::from_le_bytes(a) as f64
+                    } else {
+                        u64::from_le_bytes(a) as f64
+                    };
+                    if let Column::F64(c) = &mut attributes[attr + v % b.count].values {
+                        c[v / b.count] = x;
+                    }
+                }
+            }
+            Target::Elements(attr) if b.count == 1 => {
+                fill(&mut attributes[*attr].values, first, bytes)
+            }
+            Target::Elements(attr) => {
+                for (t, ch) in bytes.chunks_exact(b.size).enumerate() {
+                    let v = first + t;
+                    fill(&mut attributes[attr + v % b.count].values, v / b.count, ch);
+                }
+            }
+        }
+    }
+
+    /// The points: every slot of an unorganised file; the slots of an organised one whose
+    /// x, y and z are not all NaN, listed.
+    fn finish(self, h: &Header) -> Decoded {
+        let SlotSink {
+            mut positions,
+            mut attributes,
+            ..
+        } = self;
+        if !h.organised() {
+            return Decoded {
+                positions,
+                attributes,
+                slots: None,
+            };
+        }
+        let keep: Vec<bool> = positions
+            .iter()
+            .map(|p| !p.iter().all(|c| c.is_nan()))
+            .collect();
+        let slots = (0..h.points as u32).filter(|&s| keep[s as usize]).collect();
+        if !keep.iter().all(|&k| k) {
+            let mut it = keep.iter();
+            positions.retain(|_| *it.next().unwrap_or(&false));
+            for a in &mut attributes {
+                a.values.retain_mask(&keep);
+            }
+        }
+        Decoded {
+            positions,
+            attributes,
+            slots: Some(slots),
+        }
+    }
+}
+
+/// A piece of decompressed output handed from the decoder to the converter: the buffer and
+/// the range of it that is new output (the bytes before are the window of earlier output).
+type Piece = (Vec<u8>, usize, usize);
+
+/// Decodes the `compressed` bytes of LZF from `file` (positioned at them) in pieces,
+/// handing each [`LZF_CHUNK`] of output to `hand_on`, which gives back a buffer to reuse
+/// (`None`: stop). Errors name the file offset of a bad token (`body` is the offset of the
+/// sizes before the data).
+fn decode_lzf_body(
+    path: &Path,
+    file: &mut std::fs::File,
+    body: usize,
+    compressed: usize,
+    uncompressed: usize,
+    hand_on: &mut dyn FnMut(Piece) -> Option<Vec<u8>>,
+) -> Result<()> {
+    use lzf_stream::{Cursor, MAX_TOKEN_IN, SLACK, WINDOW};
+    use std::io::Read;
+    let buf_len = WINDOW + LZF_CHUNK + SLACK;
+    let stop = WINDOW + LZF_CHUNK;
+    let mut out = vec![0u8; buf_len];
+    let mut spare: Option<Vec<u8>> = None;
+    let mut input = vec![0u8; LZF_READ.min(compressed).max(MAX_TOKEN_IN + 2)];
+    let mut filled = 0;
+    let mut unread = compressed;
+    let mut c = Cursor {
+        input: 0,
+        output: 0,
+        room: uncompressed,
+        consumed_before: 0,
+    };
+    let mut begin = 0;
+    loop {
+        if filled - c.input < MAX_TOKEN_IN + 2 && unread > 0 {
+            input.copy_within(c.input..filled, 0);
+            filled -= c.input;
+            c.consumed_before += c.input as u64;
+            c.input = 0;
+            let n = (input.len() - filled).min(unread);
+            file.read_exact(&mut input[filled..filled + n])
+                .map_err(|e| Error::io(path, "cannot read", e))?;
+            filled += n;
+            unread -= n;
+        }
+        let last = unread == 0;
+        lzf_stream::decode(&input[..filled], last, &mut out, stop, &mut c)
+            .map_err(|e| lzf_damaged(path, body, &e))?;
+        if last && c.input == filled {
+            let end = c.output;
+            hand_on((out, begin, end));
+            break;
+        }
+        if c.output >= stop {
+            let mut next = spare.take().unwrap_or_else(|| vec![0u8; buf_len]);
+            next[..WINDOW].copy_from_slice(&out[c.output - WINDOW..c.output]);
+            let end = c.output;
+            match hand_on((std::mem::replace(&mut out, next), begin, end)) {
+                Some(b) if b.len() == buf_len => spare = Some(b),
+                Some(_) => {}
+                None => return Ok(()),
+            }
+            c.output = WINDOW;
+            begin = WINDOW;
+        }
+    }
+    if c.room > 0 {
+        return Err(malformed(
+            path,
+            format!("byte {}", body + 8 + compressed),
+            format!(
+                "the LZF data ends after {} of the {uncompressed} bytes the sizes declare: \
+                 the data is truncated or the sizes are wrong",
+                uncompressed - c.room
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// Reads a `binary_compressed` body from `file` (its header read): the LZF data in pieces
+/// of [`LZF_READ`] bytes, decoded [`LZF_CHUNK`] bytes at a time and each piece converted
+/// into the cloud's columns while it is in the cache, with no buffer of the whole body.
+/// With two or more threads (the caller's rayon pool) a second thread decodes while this
+/// one converts.
+fn read_compressed_streamed(
+    path: &Path,
+    mut file: std::fs::File,
+    file_len: u64,
+    h: &Header,
+) -> Result<Decoded> {
+    use std::io::{Read, Seek, SeekFrom};
+    let at = h.data_start;
+    let after = file_len.saturating_sub(at as u64);
+    let mut sizes = [0u8; 8];
+    let got = if after >= 8 {
+        file.seek(SeekFrom::Start(at as u64))
+            .and_then(|_| file.read_exact(&mut sizes))
+            .map_err(|e| Error::io(path, "cannot read", e))?;
+        Some(&sizes[..])
+    } else {
+        None
+    };
+    let (compressed, uncompressed) = compressed_sizes(path, h, got, after.saturating_sub(8))?;
+    let mut sink = SlotSink::new(path, h)?;
+    if uncompressed == 0 {
+        return Ok(sink.finish(h));
+    }
+    if rayon::current_num_threads() < 2 {
+        decode_lzf_body(
+            path,
+            &mut file,
+            at,
+            compressed,
+            uncompressed,
+            &mut |(buf, a, b)| {
+                sink.feed(&buf[a..b]);
+                Some(buf)
+            },
+        )?;
+        return Ok(sink.finish(h));
+    }
+    use std::sync::mpsc::{channel, sync_channel};
+    let (full_tx, full_rx) = sync_channel::<Piece>(LZF_QUEUE);
+    let (free_tx, free_rx) = channel::<Vec<u8>>();
+    let decoded = std::thread::scope(|s| {
+        let decoder = s.spawn(move || {
+            decode_lzf_body(
+                path,
+                &mut file,
+                at,
+                compressed,
+                uncompressed,
+                &mut |piece| {
+                    full_tx.send(piece).ok()?;
+                    // A converted buffer if one is back, else a new one (at most LZF_QUEUE
+                    // wait in the channel, so few are ever made).
+                    Some(free_rx.try_recv().unwrap_or_default())
+                },
+            )
+        });
+        for (buf, a, b) in full_rx.iter() {
+            sink.feed(&buf[a..b]);
+            let _ = free_tx.send(buf);
+        }
+        decoder.join()
+    });
+    match decoded {
+        Ok(result) => result?,
+        Err(panic) => std::panic::resume_unwind(panic),
+    }
+    Ok(sink.finish(h))
+}
+
 /// Reads a PCD file; with `keep`, also the [`PcdFile`] for writing it back (the cloud then
 /// carries no attribute columns: the records hold them, one copy of the points, not two).
 pub(crate) fn read_file(path: &Path, keep: bool) -> Result<(Loaded, Option<PcdFile>)> {
-    let chunked = if keep {
-        None
-    } else {
-        read_binary_chunked(path)?
-    };
+    let chunked = if keep { None } else { read_streamed(path)? };
     let (header, decoded, body) = match chunked {
         Some((h, d)) => (h, d, None),
         None => {
@@ -1352,6 +1854,14 @@ fn push_ascii(s: &mut String, f: &Field, b: &[u8]) {
         (Kind::U, 4) => {
             a4.copy_from_slice(b);
             write!(s, "{}", u32::from_le_bytes(a4))
+        }
+        (Kind::I, 8) => {
+            a8.copy_from_slice(b);
+            write!(s, "{}", i64::from_le_bytes(a8))
+        }
+        (Kind::U, 8) => {
+            a8.copy_from_slice(b);
+            write!(s, "{}", u64::from_le_bytes(a8))
         }
         (Kind::F, 4) => {
             a4.copy_from_slice(b);

@@ -201,6 +201,8 @@ pub fn parse(bytes: &[u8]) -> Pcd {
                             ('U', 1) => t.parse::<u8>().unwrap().to_le_bytes().to_vec(),
                             ('U', 2) => t.parse::<u16>().unwrap().to_le_bytes().to_vec(),
                             ('U', 4) => t.parse::<u32>().unwrap().to_le_bytes().to_vec(),
+                            ('I', 8) => t.parse::<i64>().unwrap().to_le_bytes().to_vec(),
+                            ('U', 8) => t.parse::<u64>().unwrap().to_le_bytes().to_vec(),
                             other => panic!("type {other:?}"),
                         };
                         rec.extend_from_slice(&b);
@@ -292,6 +294,8 @@ pub fn body(pcd: &Pcd) -> Vec<u8> {
                             ('U', 2) => u16::from_le_bytes(b.try_into().unwrap()).to_string(),
                             ('I', 4) => i32::from_le_bytes(b.try_into().unwrap()).to_string(),
                             ('U', 4) => u32::from_le_bytes(b.try_into().unwrap()).to_string(),
+                            ('I', 8) => i64::from_le_bytes(b.try_into().unwrap()).to_string(),
+                            ('U', 8) => u64::from_le_bytes(b.try_into().unwrap()).to_string(),
                             other => panic!("type {other:?}"),
                         });
                     }
@@ -380,6 +384,50 @@ pub fn every_field_frame() -> Pcd {
         width,
         height,
         viewpoint: [0.5, -1.0, 2.0, 0.6, 0.0, 0.8, 0.0],
+        data: "binary".into(),
+        records,
+    }
+}
+
+/// A bigger unorganised cloud (`n` points) whose binary_compressed body spans many of the
+/// reader's decoding chunks, values split between them: x y z, packed `rgb` (U 4), a
+/// 64-bit signed and unsigned integer, a double normal of COUNT 3, a byte, padding. Values
+/// repeat in runs, as a sensor's do, so LZF finds back references of every length.
+pub fn big_cloud(n: usize) -> Pcd {
+    let fields = vec![
+        field("x", 'F', 4, 1),
+        field("y", 'F', 4, 1),
+        field("z", 'F', 4, 1),
+        field("rgb", 'U', 4, 1),
+        field("stamp", 'I', 8, 1),
+        field("id", 'U', 8, 1),
+        field("normal", 'F', 8, 3),
+        field("_", 'U', 1, 3),
+        field("ring", 'U', 1, 1),
+    ];
+    let mut records = Vec::new();
+    let mut s: u64 = 0x2545_F491_4F6C_DD1D;
+    for i in 0..n {
+        s ^= s << 13;
+        s ^= s >> 7;
+        s ^= s << 17;
+        let j = (s >> 54) as f32 / 1024.0;
+        for v in [(i % 300) as f32 + j, (i / 300) as f32 * 0.5, j * j] {
+            records.extend_from_slice(&v.to_le_bytes());
+        }
+        records.extend_from_slice(&((i / 7) as u32 * 0x0001_0203).to_le_bytes());
+        records.extend_from_slice(&(-(i as i64) * 1_000_000_007).to_le_bytes());
+        records.extend_from_slice(&((1u64 << 52) + (i / 3) as u64).to_le_bytes());
+        for k in 0..3 {
+            records.extend_from_slice(&(((i / 5) % 17) as f64 * 0.125 - k as f64).to_le_bytes());
+        }
+        records.extend_from_slice(&[0, 0, 0, (i % 32) as u8]);
+    }
+    Pcd {
+        fields,
+        width: n,
+        height: 1,
+        viewpoint: [0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0],
         data: "binary".into(),
         records,
     }
