@@ -231,7 +231,8 @@ fn failed_tile_is_named_and_rerun_alone() {
 }
 
 /// Bad uses get errors naming the problem: another pipeline file than the plan's, a tile
-/// out of range, a plan folder holding tiles of an earlier plan, no tile size.
+/// out of range, a plan folder holding tiles of an earlier plan, no tile size, a grid of more
+/// tiles than a usize holds.
 #[test]
 fn tile_runs_refuse_a_foreign_config_and_a_tile_out_of_range() {
     let tmp = tempfile::tempdir().unwrap();
@@ -281,6 +282,25 @@ fn tile_runs_refuse_a_foreign_config_and_a_tile_out_of_range() {
         ],
     );
     assert!(!good && err.contains("--grid: needs three values"), "{err}");
+    // A grid whose tile count overflows is refused, not a panic.
+    let (good, err) = sharpedge(
+        d,
+        &[
+            "-q",
+            "plan",
+            cfg,
+            "--input",
+            "box.ply",
+            "--out",
+            "p4",
+            "--grid",
+            "4294967296,4294967296,1",
+        ],
+    );
+    assert!(
+        !good && err.contains("--grid: ") && err.contains("more than the 100000"),
+        "{err}"
+    );
 }
 
 /// --tile-points sizes the tiles so that the largest reads at most that many points, as the

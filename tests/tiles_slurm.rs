@@ -46,7 +46,28 @@ fn skip_or_fail(why: &str) {
     if std::env::var_os("SHARPEDGE_REQUIRE_SLURM").is_some_and(|v| v == "1") {
         panic!("SHARPEDGE_REQUIRE_SLURM=1 but {why}");
     }
-    eprintln!("skipped: {why} (apt-get install slurm-wlm munge, and run as root)");
+    // Straight to the process's stderr, not through eprintln!: the test harness keeps what a
+    // passing test prints with eprintln! to itself, and a skipped Slurm run must show in a
+    // plain `cargo test`.
+    use std::io::Write;
+    let _ = writeln!(
+        std::io::stderr(),
+        "tiles_slurm: SKIPPED the Slurm part (the xargs part ran): {why} (apt-get install \
+         slurm-wlm munge, and run as root; SHARPEDGE_REQUIRE_SLURM=1 makes this a failure)"
+    );
+}
+
+/// The last lines of the test cluster's logs, for a failure message (the folder is removed
+/// when the test unwinds).
+fn log_tails(dir: &Path) -> String {
+    let mut out = String::new();
+    for name in ["munged.log", "slurmctld.log", "slurmd.log"] {
+        let text = std::fs::read_to_string(dir.join(name)).unwrap_or_default();
+        let lines: Vec<&str> = text.lines().collect();
+        out += &format!("\n--- {name} (last lines)\n");
+        out += &lines[lines.len().saturating_sub(15)..].join("\n");
+    }
+    out
 }
 
 /// Starts munged, slurmctld and slurmd for one node named after this host; returns the
@@ -110,8 +131,8 @@ fn start_cluster(dir: &Path, bins: &[PathBuf; 3]) -> (Daemons, PathBuf) {
         while !ready() {
             assert!(
                 start.elapsed() < Duration::from_secs(60),
-                "{what} did not come up; logs in {}",
-                dir.display()
+                "{what} did not come up within 60 s:{}",
+                log_tails(dir)
             );
             std::thread::sleep(Duration::from_millis(200));
         }
@@ -206,10 +227,10 @@ fn a_plan_runs_as_a_slurm_job_array_and_with_xargs() {
         .unwrap();
     assert!(
         out.status.success(),
-        "sbatch --wait failed: {}{}; logs in {}",
+        "sbatch --wait failed: {}{}{}",
         String::from_utf8_lossy(&out.stdout),
         String::from_utf8_lossy(&out.stderr),
-        cluster.path().display()
+        log_tails(cluster.path())
     );
     for t in 0..4 {
         assert!(

@@ -63,9 +63,13 @@ pub struct Grid {
 }
 
 impl Grid {
-    /// Number of tiles.
+    /// Number of tiles (`usize::MAX` when the product of the cells overflows: a grid no plan
+    /// accepts).
     pub fn len(&self) -> usize {
-        self.cells[0] * self.cells[1] * self.cells[2]
+        self.cells
+            .iter()
+            .try_fold(1usize, |n, &c| n.checked_mul(c))
+            .unwrap_or(usize::MAX)
     }
 
     /// Whether the grid has no tile.
@@ -268,5 +272,11 @@ mod tests {
         assert_eq!(g.region(0)[0][0], f64::NEG_INFINITY);
         assert_eq!(g.region(2)[1][0], f64::INFINITY);
         assert_eq!(g.region(1)[0][0], 1.0);
+        // A product of cells past usize is no grid's size (it wrapped to 0 before).
+        let huge = Grid {
+            cells: [1 << 32, 1 << 32, 1],
+            ..g
+        };
+        assert_eq!(huge.len(), usize::MAX);
     }
 }

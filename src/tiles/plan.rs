@@ -283,12 +283,17 @@ fn choose_grid(
         }
     };
     if grid.len() > MAX_TILES {
+        let option = match sizing {
+            Sizing::Points(_) => "--tile-points",
+            Sizing::Size(_) => "--tile-size",
+            Sizing::Cells(_) => "--grid",
+        };
         return Err(usage(
-            "--tile-size",
+            option,
             format!(
-                "{} tiles ({} x {} x {}) are more than the {MAX_TILES} a plan may have; give \
+                "{:.0} tiles ({} x {} x {}) are more than the {MAX_TILES} a plan may have; give \
                  larger tiles",
-                grid.len(),
+                grid.cells.iter().map(|&c| c as f64).product::<f64>(),
                 grid.cells[0],
                 grid.cells[1],
                 grid.cells[2]
