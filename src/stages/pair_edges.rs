@@ -33,7 +33,7 @@ use crate::stages::edges::{EdgeParams, fillet_limit};
 use crate::stages::faces::{Faces, NO_FACE};
 use crate::stages::features::{Features, LocalScale};
 use crate::stages::plane_corners::{
-    FaceCorner, FaceEdge, MIN_FACE_ANGLE, VOTE_STRIDE, faces_seen, hug_gap, hugs, intersect, traces,
+    FaceCorner, FaceEdge, MIN_FACE_ANGLE, faces_seen, hug_gap, hugs, intersect, traces, voters,
 };
 
 /// A face pair named by a candidate (its id).
@@ -82,10 +82,7 @@ pub fn pair_edges(
     if faces.planes.len() < 2 {
         return Vec::new();
     }
-    let candidates: Vec<u32> = (0..positions.len() as u32)
-        .filter(|&i| features.candidate[i as usize] && !features.outlier[i as usize])
-        .step_by(VOTE_STRIDE)
-        .collect();
+    let candidates = voters(features);
     // (face pair, candidate) for every candidate that sees two faces or more.
     let mut votes: Vec<PairVote> = candidates
         .par_iter()

@@ -78,11 +78,7 @@ pub fn face_corners(
     if faces.planes.len() < 3 {
         return Vec::new();
     }
-    // Every `VOTE_STRIDE`-th candidate names faces: a corner has dozens within its reach.
-    let candidates: Vec<u32> = (0..positions.len() as u32)
-        .filter(|&i| features.candidate[i as usize] && !features.outlier[i as usize])
-        .step_by(VOTE_STRIDE)
-        .collect();
+    let candidates = voters(features);
     // (face triple, candidate) for every candidate that sees three faces or more; each
     // worker keeps one list and one scratch of seen faces (sorted below, so the order in which
     // workers fill them does not matter).
@@ -236,6 +232,16 @@ pub fn face_corners(
         }
     }
     kept
+}
+
+/// The edge candidates that name faces, for the plane corners and the pair edges: every
+/// `VOTE_STRIDE`-th candidate that is no outlier (a corner or an edge has dozens within its
+/// reach).
+pub(crate) fn voters(features: &Features) -> Vec<u32> {
+    (0..features.candidate.len() as u32)
+        .filter(|&i| features.candidate[i as usize] && !features.outlier[i as usize])
+        .step_by(VOTE_STRIDE)
+        .collect()
 }
 
 /// The faces edge candidate `c` sees (see [`SEE_POINTS`]), at most the six with the most
