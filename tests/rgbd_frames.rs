@@ -129,6 +129,14 @@ fn bench_frames_writes_scores_and_figures() {
             assert!(e["one_edge"].as_f64().unwrap() >= 0.9, "{e}");
         }
     }
+    // Issue 17: real faces bend (cardboard, the depth camera's warp) and refuse more of
+    // their neighbours than simulated ones; once the faces stage lets wide faces bend to a
+    // radius of 150 spacings and refuse up to 30 %, every edge of stacked_boxes is found over
+    // 99–100 % as one edge (before: 79 % and 0 % for the two box edges).
+    let stacked = frames[1]["score"]["edges"].as_array().unwrap();
+    for e in stacked {
+        assert!(e["one_edge"].as_f64().unwrap() >= 0.9, "{e}");
+    }
     for name in ["box.svg", "stacked_boxes.svg"] {
         let svg = std::fs::read_to_string(figs.join(name)).unwrap();
         assert!(
