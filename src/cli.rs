@@ -33,6 +33,60 @@ pub enum Command {
     Experiment(ExperimentArgs),
     /// Score the pipeline against ground truth on a suite of simulated scans.
     Bench(BenchArgs),
+    /// Cut a large cloud into tiles with halos for `run --plan DIR --tile I` (one streaming
+    /// pass); writes DIR/plan.json and a Slurm array script DIR/sbatch.sh.
+    Plan(PlanArgs),
+    /// Join the tiles of a plan into one result (the output files of `run`).
+    Merge(MergeArgs),
+}
+
+#[derive(Debug, Args)]
+pub struct PlanArgs {
+    /// The pipeline file (its copy goes into the plan; the tiles run with it).
+    pub config: PathBuf,
+    /// The cloud to cut; default: `input.path` of the config.
+    #[arg(long)]
+    pub input: Option<PathBuf>,
+    /// The plan folder.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Cubic tiles, as few as keep every tile's core + halo at or below N points.
+    #[arg(long, value_name = "N", conflicts_with_all = ["tile_size", "grid"])]
+    pub tile_points: Option<u64>,
+    /// Cubic tiles of side L (model units).
+    #[arg(long, value_name = "L", conflicts_with = "grid")]
+    pub tile_size: Option<f64>,
+    /// NX,NY,NZ tiles splitting the bounding box evenly.
+    // clap counts `num_args` before splitting at the delimiter: 1..=3 takes `2,2,2` and
+    // `2 2 2`; the count of three is checked after parsing.
+    #[arg(long, value_name = "NX,NY,NZ", value_delimiter = ',', num_args = 1..=3)]
+    pub grid: Option<Vec<usize>>,
+    /// A corner X,Y,Z of the tile grid (default: the bounding box's minimum).
+    #[arg(
+        long,
+        value_name = "X,Y,Z",
+        value_delimiter = ',',
+        num_args = 1..=3,
+        allow_hyphen_values = true
+    )]
+    pub anchor: Option<Vec<f64>>,
+    /// Halo width in model units (default: derived from the spacing and the pipeline file;
+    /// see the README's "Tiles").
+    #[arg(long, value_name = "L")]
+    pub halo: Option<f64>,
+}
+
+#[derive(Debug, Args)]
+pub struct MergeArgs {
+    /// The plan folder whose tiles ran.
+    pub plan: PathBuf,
+    /// Output folder.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Write what the finished tiles give even when some are missing or failed (they are
+    /// listed in report.json).
+    #[arg(long)]
+    pub partial: bool,
 }
 
 #[derive(Debug, Args)]
@@ -52,6 +106,13 @@ pub struct RunArgs {
     /// LAS/LAZ/PCD/E57 as the input, COPC as LAZ, PLY otherwise).
     #[arg(long, value_parser = ["auto", "ply", "las", "laz", "pcd", "e57"])]
     pub format: Option<String>,
+    /// Run one tile of this plan (see `sharpedge plan`) instead of the whole input; its
+    /// partial outputs go into the plan folder.
+    #[arg(long, requires = "tile", conflicts_with_all = ["input", "out", "format"])]
+    pub plan: Option<PathBuf>,
+    /// The tile of --plan to run (0-based).
+    #[arg(long, requires = "plan")]
+    pub tile: Option<usize>,
 }
 
 #[derive(Debug, Args)]
@@ -303,7 +364,108 @@ pub fn dispatch(cli: &Cli) -> anyhow::Result<()> {
         Command::Info(a) => info(cli, a),
         Command::Experiment(a) => experiment(cli, a),
         Command::Bench(a) => bench(cli, a),
+        Command::Plan(a) => plan(cli, a),
+        Command::Merge(a) => merge(cli, a),
     }
+}
+
+fn plan(cli: &Cli, a: &PlanArgs) -> anyhow::Result<()> {
+    use sharpedge::tiles::plan::{PlanOptions, Sizing};
+    let settings = sharpedge::config::load(&a.config)?;
+    let input = a
+        .input
+        .clone()
+        .or_else(|| settings.input.path.clone())
+        .ok_or_else(|| sharpedge::Error::Usage {
+            option: "--input".into(),
+            message: "no input cloud: set input.path in the pipeline file or pass --input".into(),
+        })?;
+    for (option, n) in [
+        ("--grid", a.grid.as_ref().map(Vec::len)),
+        ("--anchor", a.anchor.as_ref().map(Vec::len)),
+    ] {
+        if let Some(n) = n
+            && n != 3
+        {
+            return Err(sharpedge::Error::Usage {
+                option: option.into(),
+                message: format!("needs three values X,Y,Z, got {n}"),
+            }
+            .into());
+        }
+    }
+    let sizing = match (a.tile_points, a.tile_size, &a.grid) {
+        (Some(n), _, _) => Sizing::Points(n),
+        (_, Some(l), _) => Sizing::Size(l),
+        (_, _, Some(g)) => Sizing::Cells([g[0], g[1], g[2]]),
+        _ => {
+            return Err(sharpedge::Error::Usage {
+                option: "--tile-points".into(),
+                message: "say how large the tiles are: --tile-points N, --tile-size L or \
+                          --grid NX,NY,NZ"
+                    .into(),
+            }
+            .into());
+        }
+    };
+    let exe = std::env::current_exe().unwrap_or_else(|_| PathBuf::from("sharpedge"));
+    let plan = sharpedge::tiles::plan::make_plan(
+        &a.config,
+        &settings,
+        &PlanOptions {
+            input,
+            out: a.out.clone(),
+            sizing,
+            anchor: a.anchor.as_ref().map(|v| [v[0], v[1], v[2]]),
+            halo: a.halo,
+            exe,
+        },
+    )?;
+    if !cli.quiet {
+        let most = plan.tiles.iter().map(|t| t.halo_points).max().unwrap_or(0);
+        eprintln!(
+            "plan: {} points, {} tiles ({} x {} x {}), halo {:.6} (spacing about {:.6}); the \
+             largest tile reads about {most} points\n  run:   {}/sbatch.sh with sbatch, or \
+             seq 0 {} | xargs -P 2 -I{{}} sharpedge -q run {}/pipeline.toml --plan {} --tile {{}}\n  \
+             then:  sharpedge merge {} --out RESULT",
+            plan.points,
+            plan.tiles.len(),
+            plan.grid.cells[0],
+            plan.grid.cells[1],
+            plan.grid.cells[2],
+            plan.halo,
+            plan.spacing,
+            a.out.display(),
+            plan.tiles.len() - 1,
+            a.out.display(),
+            a.out.display(),
+            a.out.display(),
+        );
+    }
+    Ok(())
+}
+
+fn merge(cli: &Cli, a: &MergeArgs) -> anyhow::Result<()> {
+    let s = sharpedge::tiles::merge::merge(
+        &a.plan,
+        &sharpedge::tiles::merge::MergeOptions {
+            out: a.out.clone(),
+            partial: a.partial,
+        },
+    )?;
+    if !cli.quiet {
+        eprintln!(
+            "merge: {} of {} tiles, {} points, {} edges ({} joined across seams), {} corners -> {}",
+            s.tiles - s.missing.len() - s.failed.len(),
+            s.tiles,
+            s.points,
+            s.edges,
+            s.joined,
+            s.corners,
+            a.out.display()
+        );
+    }
+    Ok(())
 }
 
 fn run(cli: &Cli, a: &RunArgs) -> anyhow::Result<()> {
@@ -326,6 +488,21 @@ fn run(cli: &Cli, a: &RunArgs) -> anyhow::Result<()> {
             .into());
         }
         settings.threads = t;
+    }
+    if let (Some(plan), Some(tile)) = (&a.plan, a.tile) {
+        let s = sharpedge::tiles::run::run_tile(&settings, &a.config, plan, tile)?;
+        if !cli.quiet {
+            eprintln!(
+                "tile {}: {} points read, {} owned, {} edges, {} corners -> {}",
+                s.tile,
+                s.read,
+                s.core,
+                s.edges,
+                s.corners,
+                sharpedge::tiles::tile_dir(plan, tile).display()
+            );
+        }
+        return Ok(());
     }
     if let Some(f) = &a.format {
         use sharpedge::io::CloudFormat;

@@ -104,6 +104,27 @@ pub enum Error {
         expected: &'static str,
     },
 
+    // ---- tiles (tiles/) ----
+    /// A plan folder or one of its files cannot be used: not a plan, another pipeline file
+    /// than the plan's, a tile id out of range, a halo narrower than a tile's scale needs.
+    #[error("{}: {what}", path.display())]
+    Plan { path: PathBuf, what: String },
+    /// `merge` on a plan whose tiles are not all done: the tiles never run (or killed) and
+    /// the failed ones with their errors.
+    #[error(
+        "{}: {} of {total} tiles are not done ({}); run them with `sharpedge run CONFIG --plan \
+         DIR --tile I`, or merge what exists with --partial",
+        path.display(),
+        missing.len() + failed.len(),
+        incomplete_list(missing, failed)
+    )]
+    Incomplete {
+        path: PathBuf,
+        total: usize,
+        missing: Vec<usize>,
+        failed: Vec<(usize, String)>,
+    },
+
     // ---- scan simulator (synth/) ----
     /// A simulator parameter outside its allowed range (`name` is the field of `SynthParams`
     /// and the CLI option without `--`, with `_` for `-`).
@@ -113,6 +134,19 @@ pub enum Error {
         value: String,
         allowed: String,
     },
+}
+
+/// The tiles `Error::Incomplete` names: missing ones as a list, failed ones with their error.
+fn incomplete_list(missing: &[usize], failed: &[(usize, String)]) -> String {
+    let mut parts = Vec::new();
+    if !missing.is_empty() {
+        let ids: Vec<String> = missing.iter().map(|i| i.to_string()).collect();
+        parts.push(format!("missing: tile {}", ids.join(", ")));
+    }
+    for (i, e) in failed {
+        parts.push(format!("tile {i} failed: {e}"));
+    }
+    parts.join("; ")
 }
 
 impl Error {

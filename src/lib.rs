@@ -25,6 +25,7 @@ pub mod stages;
 pub mod synth;
 #[cfg(test)]
 pub(crate) mod testdata;
+pub mod tiles;
 
 pub use cloud::{Attribute, Cloud, Column, Pose, Scan, ScanStructure, Source};
 // The stages' public paths of before they were grouped under stages/ (sharpedge::features,

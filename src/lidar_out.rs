@@ -13,7 +13,7 @@ use serde_json::{Map, Value, json};
 use crate::cloud::{Attribute, Column};
 use crate::error::Result;
 use crate::io::{self, Crs, ExtraField, GeoFeature, Geometry, LasWriteOptions, Lidar};
-use crate::outcome::{Outcome, PointFields};
+use crate::outcome::{CornerOut, EdgeOut, Outcome, PointFields};
 
 /// What a point is to sharpedge, in the `edge_kind` extra bytes; the edges' own kinds use the
 /// same table (`EdgeKind::code`: the vertices of a sharp edge in features.ply have 2).
@@ -104,11 +104,21 @@ pub fn write_rectified(
 /// (degrees), `rms`, `convex` (null when not determined), and for corners the ids of their
 /// `edges`.
 pub fn write_edges(path: &Path, outcome: &Outcome, crs: Option<&Crs>) -> Result<()> {
-    let mut features = Vec::with_capacity(outcome.edges.len() + outcome.corners.len());
+    write_edges_of(path, &outcome.edges, &outcome.corners, crs)
+}
+
+/// [`write_edges`] of these edges and corners (`run`'s, or the ones `merge` joined).
+pub fn write_edges_of(
+    path: &Path,
+    edges: &[EdgeOut],
+    corners: &[CornerOut],
+    crs: Option<&Crs>,
+) -> Result<()> {
+    let mut features = Vec::with_capacity(edges.len() + corners.len());
     let props = |pairs: [(&str, Value); 6]| -> Map<String, Value> {
         pairs.into_iter().map(|(k, v)| (k.to_string(), v)).collect()
     };
-    for e in &outcome.edges {
+    for e in edges {
         features.push(GeoFeature {
             geometry: Geometry::LineString(e.polyline.clone()),
             properties: props([
@@ -121,7 +131,7 @@ pub fn write_edges(path: &Path, outcome: &Outcome, crs: Option<&Crs>) -> Result<
             ]),
         });
     }
-    for c in &outcome.corners {
+    for c in corners {
         let mut p = props([
             ("id", json!(c.id)),
             ("kind", json!("corner")),

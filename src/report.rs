@@ -300,6 +300,17 @@ fn write_rectified(path: &Path, outcome: &Outcome, opts: &PlyWriteOptions) -> Re
 const NO_EDGE_KIND: u8 = 255;
 
 fn write_features(path: &Path, outcome: &Outcome, opts: &PlyWriteOptions) -> Result<()> {
+    write_features_of(path, &outcome.edges, &outcome.corners, opts)
+}
+
+/// Writes features.ply of these edges and corners (`run`'s, or the ones `merge` joined from
+/// tiles).
+pub fn write_features_of(
+    path: &Path,
+    edges: &[EdgeOut],
+    corners: &[CornerOut],
+    opts: &PlyWriteOptions,
+) -> Result<()> {
     // Vertices: corners, then each edge's polyline, then its rectified edge points.
     let mut pos: Vec<[f64; 3]> = Vec::new();
     let mut kind: Vec<u8> = Vec::new();
@@ -307,13 +318,13 @@ fn write_features(path: &Path, outcome: &Outcome, opts: &PlyWriteOptions) -> Res
     // The edge's kind by the `edge_kind` code table (2 sharp); a corner belongs to no one edge.
     let mut edge_kind: Vec<u8> = Vec::new();
     let mut lines: Vec<[u32; 2]> = Vec::new();
-    for c in &outcome.corners {
+    for c in corners {
         pos.push(c.position);
         kind.push(0);
         edge_id.push(-1);
         edge_kind.push(NO_EDGE_KIND);
     }
-    for e in &outcome.edges {
+    for e in edges {
         let first = pos.len() as u32;
         for (k, p) in e.polyline.iter().enumerate() {
             pos.push(*p);
@@ -325,7 +336,7 @@ fn write_features(path: &Path, outcome: &Outcome, opts: &PlyWriteOptions) -> Res
             }
         }
     }
-    for e in &outcome.edges {
+    for e in edges {
         for p in &e.rectified {
             pos.push(*p);
             kind.push(2);

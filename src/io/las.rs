@@ -215,6 +215,76 @@ fn read_evlrs(path: &Path) -> Result<Vec<las::Vlr>> {
     Ok(out)
 }
 
+/// Streams the positions of a LAS/LAZ/COPC file in chunks of [`CHUNK`] points, in file
+/// order, to `f`, without holding the cloud (the tiles of a cloud larger than memory are cut
+/// from it this way: `tiles`). Returns the point count, the format's description and the
+/// header's bounding box (min, max).
+pub(crate) fn stream_positions(
+    path: &Path,
+    f: &mut (dyn FnMut(&[[f64; 3]]) -> Result<()> + Send),
+) -> Result<(u64, String, [[f64; 3]; 2])> {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(rayon::current_num_threads())
+        .stack_size(DECODER_STACK)
+        .build()
+        .map_err(|e| {
+            Error::io(
+                path,
+                "cannot start the threads that decode it",
+                std::io::Error::other(e.to_string()),
+            )
+        })?;
+    pool.install(|| {
+        let file = super::open(path)?;
+        let file_len = file.metadata().map(|m| m.len()).unwrap_or(0);
+        super::las_check::check(path, &file, file_len)?;
+        let mut reader = unpanicked(path, "header", || {
+            Reader::new(BufReader::with_capacity(1 << 17, file))
+        })?
+        .map_err(|e| las_error(path, "header", true, e))?;
+        let header = reader.header().clone();
+        let n = header.number_of_points();
+        let kind = if header.copc_info_vlr().is_some() {
+            "COPC LAZ"
+        } else if header.point_format().is_compressed {
+            "LAZ"
+        } else {
+            "LAS"
+        };
+        let description = format!("{kind} {}", header.version());
+        let b = header.bounds();
+        let bounds = [[b.min.x, b.min.y, b.min.z], [b.max.x, b.max.y, b.max.z]];
+        let mut pd = PointDataBuilder::new().for_header(&header).build();
+        let progress = if n >= super::PROGRESS_MIN_POINTS {
+            Progress::start("read", n, "points")
+        } else {
+            Progress::hidden()
+        };
+        let mut positions: Vec<[f64; 3]> = Vec::with_capacity(CHUNK as usize);
+        let mut done = 0u64;
+        while done < n {
+            let want = CHUNK.min(n - done);
+            let place = || format!("points {done}..{} of {n}", done + want);
+            let got = unpanicked(path, place(), || reader.fill_points(want, &mut pd))?
+                .map_err(|e| las_error(path, place(), false, e))?;
+            if got == 0 {
+                return Err(Error::malformed(
+                    path,
+                    format!("point {done} of {n}"),
+                    "no more points can be decoded: the file is truncated or its header \
+                     declares more points than it holds",
+                ));
+            }
+            positions.clear();
+            positions.extend(pd.x().zip(pd.y()).zip(pd.z()).map(|((x, y), z)| [x, y, z]));
+            f(&positions)?;
+            done += got;
+            progress.inc(got);
+        }
+        Ok((n, description, bounds))
+    })
+}
+
 pub(crate) fn read(path: &Path) -> Result<Loaded> {
     read_lidar(path, false).map(|(loaded, _)| loaded)
 }

@@ -241,6 +241,99 @@ pub fn read(path: &Path, opts: &ReadOptions) -> Result<Cloud> {
     Ok(cloud)
 }
 
+/// The receiver of [`stream_positions`]: the index of a chunk's first point and the chunk.
+pub type PositionSink<'a> = dyn FnMut(u64, &[[f64; 3]]) -> Result<()> + Send + 'a;
+
+/// What [`stream_positions`] learnt of a file besides its points.
+#[derive(Debug, Clone)]
+pub struct Streamed {
+    /// Point records in the file (non-finite ones included).
+    pub records: u64,
+    /// The format's description, as `Source::format`.
+    pub format: String,
+    /// The header's bounding box (min, max) where the format has one (LAS/LAZ/COPC).
+    pub header_bounds: Option<[[f64; 3]; 2]>,
+}
+
+/// Streams the positions of a cloud file in file order to `f` in chunks, each with the
+/// index (0-based, in file order) of its first record: PLY (binary and ascii) and LAS, LAZ
+/// and COPC (sequentially) chunk by chunk without holding the cloud; PCD, E57 and XYZ text
+/// are read whole first (their readers hold the cloud), then handed over in chunks.
+/// Non-finite points follow `opts.non_finite`: refused with the first one's index, or
+/// skipped (the indices of the others stay those of the file).
+pub fn stream_positions(path: &Path, opts: &ReadOptions, f: &mut PositionSink) -> Result<Streamed> {
+    let mut next = 0u64;
+    let mut dropped = 0u64;
+    let mut finite: Vec<[f64; 3]> = Vec::new();
+    let mut pass = |chunk: &[[f64; 3]]| -> Result<()> {
+        let first = next;
+        next += chunk.len() as u64;
+        if chunk.iter().all(is_finite_point) {
+            return f(first, chunk);
+        }
+        // A chunk with non-finite points: refused, or split around them.
+        if opts.non_finite == NonFinite::Reject {
+            let k = chunk.iter().position(|p| !is_finite_point(p)).unwrap_or(0);
+            let p = chunk[k];
+            return Err(Error::BadCloud {
+                path: path.to_path_buf(),
+                what: format!(
+                    "point {} (0-based, in file order) has a non-finite coordinate (x = {}, \
+                     y = {}, z = {}). Fix the file, or read it with non-finite points dropped",
+                    first + k as u64,
+                    p[0],
+                    p[1],
+                    p[2]
+                ),
+            });
+        }
+        let mut start = 0;
+        for (k, p) in chunk.iter().enumerate() {
+            if !is_finite_point(p) {
+                dropped += 1;
+                if k > start {
+                    finite.clear();
+                    finite.extend_from_slice(&chunk[start..k]);
+                    f(first + start as u64, &finite)?;
+                }
+                start = k + 1;
+            }
+        }
+        if start < chunk.len() {
+            f(first + start as u64, &chunk[start..])?;
+        }
+        Ok(())
+    };
+    let (records, format, header_bounds) = match format_of(path)? {
+        Format::Ply => {
+            let (n, d) = ply::stream_positions(path, &mut pass)?;
+            (n, d, None)
+        }
+        Format::Las => {
+            let (n, d, b) = las::stream_positions(path, &mut pass)?;
+            (n, d, Some(b))
+        }
+        Format::Pcd | Format::Xyz | Format::E57 => {
+            let cloud = load(path)?.cloud;
+            for chunk in cloud.positions.chunks(1 << 20) {
+                pass(chunk)?;
+            }
+            (cloud.len() as u64, cloud.source.format, None)
+        }
+    };
+    if dropped > 0 {
+        tracing::warn!(
+            "{}: dropped {dropped} of {records} points with NaN or infinite coordinates",
+            path.display()
+        );
+    }
+    Ok(Streamed {
+        records,
+        format,
+        header_bounds,
+    })
+}
+
 /// What an input keeps besides its cloud for writing the rectified cloud in its own format.
 // One per run, moved and never copied: boxing the LAS header would buy nothing.
 #[allow(clippy::large_enum_variant)]

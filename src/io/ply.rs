@@ -494,6 +494,84 @@ pub(crate) fn read(path: &Path, path_choice: VertexPath) -> Result<Loaded> {
     })
 }
 
+/// Points per chunk of [`stream_positions`]: 1M points (24 MB of positions plus the record
+/// bytes), few calls, and a chunk far smaller than any tile worth streaming for.
+const STREAM_CHUNK: usize = 1 << 20;
+
+/// Streams the vertex positions of a PLY file (binary or ascii) in chunks of at most
+/// [`STREAM_CHUNK`] points, in file order, to `f`, without holding the cloud: the tiles of a
+/// cloud larger than memory are cut from it this way (`tiles`). The vertex properties other
+/// than x, y, z are decoded and dropped chunk by chunk. Returns the vertex count and the
+/// format's description (as `Source::format`).
+pub(crate) fn stream_positions(
+    path: &Path,
+    f: &mut (dyn FnMut(&[[f64; 3]]) -> Result<()> + Send),
+) -> Result<(u64, String)> {
+    let file = super::open(path)?;
+    let file_len = file.metadata().map(|m| m.len()).unwrap_or(0);
+    let mut reader = Reader::new(BufReader::with_capacity(1 << 17, file));
+    let header = Parser::<Skip>::new()
+        .read_header(&mut reader)
+        .map_err(|e| header_error(path, &e))?;
+    check_unique_names(path, reader.get_mut())?;
+    let Some(vertex_def) = header.elements.get("vertex").cloned() else {
+        return Err(Error::malformed(path, "header", "no `vertex` element"));
+    };
+    let (_, extras) = vertex_layout(path, &vertex_def)?;
+    for def in header.elements.values() {
+        if def.name == "vertex" {
+            break;
+        }
+        skip_element(&mut reader, path, def, &header, file_len)?;
+    }
+    let n = vertex_def.count;
+    if header.encoding != Encoding::Ascii {
+        check_element_fits(&mut reader, path, &vertex_def, header.encoding, file_len)?;
+    }
+    let progress = if n as u64 >= super::PROGRESS_MIN_POINTS {
+        Progress::start("read", n as u64, "points")
+    } else {
+        Progress::hidden()
+    };
+    let first_line = reader.line();
+    let mut positions = Vec::with_capacity(STREAM_CHUNK.min(n));
+    let mut chunk_def = vertex_def.clone();
+    let mut done = 0;
+    while done < n {
+        chunk_def.count = STREAM_CHUNK.min(n - done);
+        positions.clear();
+        let mut columns: Vec<Column> = extras.iter().map(|(_, t)| empty_column(t, 0)).collect();
+        if header.encoding == Encoding::Ascii {
+            read_ascii_vertices(
+                reader.get_mut(),
+                path,
+                &chunk_def,
+                first_line + done,
+                &mut positions,
+                &mut columns,
+                &progress,
+            )?;
+        } else {
+            let big_endian = header.encoding == Encoding::BinaryBigEndian;
+            read_binary_vertices(
+                reader.get_mut(),
+                path,
+                &chunk_def,
+                big_endian,
+                &mut positions,
+                &mut columns,
+                &progress,
+            )?;
+        }
+        f(&positions)?;
+        done += chunk_def.count;
+    }
+    Ok((
+        n as u64,
+        format!("PLY {} {}", header.encoding, header.version),
+    ))
+}
+
 /// Checks the header for names ply-rs-bw would merge without a word: it keeps elements and
 /// their properties in maps keyed by name, so a second `x` (or a second `vertex` element)
 /// replaces the first and the body would be decoded with a record layout that is not the
