@@ -319,12 +319,19 @@ fn known_slopes_steady_the_corner() {
         let mut rng = SmallRng::seed_from_u64(seed);
         let zone = 0.5;
         for (known, acc) in [
-            (ProfileKnown { zone, slopes: None }, &mut own),
+            (
+                ProfileKnown {
+                    zone,
+                    ..Default::default()
+                },
+                &mut own,
+            ),
             (
                 ProfileKnown {
                     zone,
                     // Either orientation, in either order.
                     slopes: Some([dir(a2 + 180.0), dir(a1)]),
+                    ..Default::default()
                 },
                 &mut shared,
             ),

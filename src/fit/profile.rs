@@ -107,6 +107,10 @@ pub struct ProfileKnown {
     /// then keeps this direction through the centroid of its points (the total least squares
     /// line of given direction).
     pub slopes: Option<[[f64; 2]; 2]>,
+    /// The smallest noise sigma the fit assumes (input units; 0 = none): an estimate from a
+    /// noise-free profile can be far below what the slab's own tilt against the edge scatters
+    /// a face by (see `stages::edges::NOISE_FLOOR`).
+    pub noise_floor: f64,
 }
 
 /// Work buffers for the 2D profile fit; keep one per thread.
@@ -170,7 +174,8 @@ pub fn prepare_profile_2d_zone(
     let arm_line = split_into_arms(s, params)?;
     // Noise: far halves of the arms against their own lines.
     let arms = s.arm.iter().map(Vec::as_slice);
-    let sigma = method::noise(params, &frame, &s.fit.loc, arms, &mut s.fit.res);
+    let sigma = method::noise(params, &frame, &s.fit.loc, arms, &mut s.fit.res)
+        .max(known.noise_floor / frame.unit);
     let ends = propagate_from_both_ends(s, sigma, params, &arm_line);
     let (s1_end, s2_start) = pull_back_from_zone(&s.fit.loc, &s.poly, known.zone, &frame, ends);
     check_side_sizes([s1_end, s.poly.len() - s2_start], params.min_side())?;

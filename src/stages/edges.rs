@@ -53,6 +53,16 @@ const SCATTER_SIGMAS: f64 = 2.0;
 /// freedom to measure it (a real 3-slab edge of a random part scattered by 7.8 spacings).
 const SCATTER_MIN_SLABS: usize = 7;
 
+/// Floor of a slab profile's noise sigma, in spacings (the surface's measured sigma gets the
+/// same floor in `fit_edges`). On a noise-free scan the profile fit estimates its sigma from
+/// the far halves of both faces; seen along a slab tangent 2e-4 rad off the edge one face can
+/// lie exactly on its line while the other scatters by 5e-4 spacings, and the median, 1e-5
+/// spacings, stopped that face's propagation after its 4 starting points: the side
+/// fits leaned by 1 % of a spacing, the abnormal zone read 2.5 spacings and face points 3
+/// spacings off a box's edge moved (a tile of a 2x2x2 plan, whose edge's scale and slabs
+/// differ slightly from the untiled run's, which happened to fit cleanly).
+const NOISE_FLOOR: f64 = 1e-3;
+
 /// Settings of the edge stage (validated by `config`).
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct EdgeParams {
@@ -248,7 +258,7 @@ pub fn fit_edges(
                 // measured sigma is a better estimate than one slab's.
                 let mut fit = fit.clone();
                 if fit.propagation.noise.is_none() && scale.noise > 0.0 {
-                    fit.propagation.noise = Some(scale.noise.max(1e-3 * scale.spacing));
+                    fit.propagation.noise = Some(scale.noise.max(NOISE_FLOOR * scale.spacing));
                 }
                 fit_run(
                     positions, outlier, grid, segments, k, &scale, params, &fit, &mut rng, scratch,
@@ -1225,6 +1235,7 @@ fn slab_pass(
         let known = ProfileKnown {
             zone,
             slopes: faces.map(|f| f.map(|d| [dot(d, e1), dot(d, e2)])),
+            noise_floor: NOISE_FLOOR * scale.spacing,
         };
         let res = fit_profile_2d_zone(&profile, [0.0, 0.0], &known, ctx.fit, rng, scratch, out);
         let res = res.and_then(|()| {
