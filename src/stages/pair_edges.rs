@@ -19,7 +19,8 @@
 //! faces named together by `MIN_SUPPORT` candidates or more, whose planes turn by at least
 //! `plane_corners::MIN_FACE_ANGLE`, is walked along its planes' intersection line in steps
 //! of a spacing, over the stretch its candidates cover. A step is on the edge when both faces
-//! have points within `FACE_REACH` radii of it and the scan passes within the widest rounding
+//! have points within `FACE_REACH` radii of it across the line and `ALONG_REACH` along it,
+//! and the scan passes within the widest rounding
 //! of a sharp edge of the line there (`plane_corners::hugs`: a fillet or a chamfer between
 //! the faces leaves their line in the air). Runs of such steps, at least `MIN_LENGTH` radii
 //! long and not along an edge between plane corners already, are edges; an end within
@@ -43,8 +44,13 @@ type PairVote = ([u32; 2], u32);
 const MIN_SUPPORT: usize = 6;
 /// Candidates farther than this many radii from the pair's line do not place its stretch.
 const ON_LINE: f64 = 2.0;
-/// Both faces have points within this many radii of a step on the edge.
-const FACE_REACH: f64 = 1.5;
+/// Both faces have points within this many radii of a step on the edge, across the line...
+const FACE_REACH: f64 = 2.5;
+/// ...and within this many radii of the step along it: a face that ends along the line (the
+/// edge turns away there: a corner, a curved edge going on as a fillet's border) ends the
+/// edge within half a radius, while across the line a face may end radii short of it (a
+/// real sensor rounds a box's edge over 4–9 mm, and what it leaves there is candidates).
+const ALONG_REACH: f64 = 0.5;
 /// The shortest edge kept, in radii: shorter runs are the ends of edges that meet elsewhere
 /// (a face pair named around a corner) or noise.
 const MIN_LENGTH: f64 = 3.0;
@@ -356,9 +362,9 @@ fn pair_stretches(
             }
             let q = axpy(origin, t, d);
             let mut near = [false; 2];
-            grid.for_each_within(q, FACE_REACH * r, |j, _, _| {
+            grid.for_each_within(q, FACE_REACH * r, |j, w, _| {
                 let l = faces.label[j as usize];
-                if l != NO_FACE {
+                if l != NO_FACE && dot(w, d).abs() <= ALONG_REACH * r {
                     near[0] |= l == pair[0];
                     near[1] |= l == pair[1];
                 }
@@ -783,6 +789,61 @@ mod tests {
         let found = edges_of(&wedge(90.0, 0.0, 10.0));
         assert!(found.iter().all(|e| e.faces != [0, 1]), "{found:?}");
         assert!(found.iter().all(|e| off_axis(e.start) > 9.0), "{found:?}");
+    }
+
+    #[test]
+    fn issue17_faces_that_end_radii_short_of_their_line_across_it_still_meet() {
+        // box.ply's 50 mm edge: the sensor rounds a real box edge over 4–9 mm, so the points
+        // there are edge candidates and the faces' labels end 1.7 radii (20, radius 12)
+        // from the line; the scan still hugs it, and the faces turn by 90°.
+        let mut w = wedge(90.0, 0.0, 0.0);
+        for (i, p) in w.positions.iter().enumerate() {
+            if off_axis(*p) < 20.0 {
+                w.faces.label[i] = NO_FACE;
+                w.features.candidate[i] = true;
+            }
+        }
+        let found = edges_of(&w);
+        assert_eq!(found.len(), 1, "{found:?}");
+        let e = &found[0];
+        let (y0, y1) = (e.start[1].min(e.end[1]), e.start[1].max(e.end[1]));
+        assert!(y0 < 1.0 && y1 > 59.0, "covers {y0}..{y1} of 0..60");
+    }
+
+    #[test]
+    fn issue17_an_edge_ends_within_half_a_radius_of_where_a_face_ends_along_it() {
+        // Face 1 (and its candidates) ends at y = 30; face 0 goes on to 60. Both faces reach
+        // 2.5 radii across the line, but along it the edge may not outrun a face: the cap of
+        // a filleted block goes on past the end of its straight edge with the top face, and
+        // a ball of 2.5 radii let that edge run on 2.2 spacings off the true, curving edge
+        // (tests/curved_edges.rs, `a_wide_fillet_is_no_sharp_edge_and_its_points_stay`).
+        let mut w = wedge(90.0, 0.0, 0.0);
+        // Face 1 runs along (cos 45°, 0, −sin 45°): below the xy-plane.
+        let on_face_1 = |p: &[f64; 3]| p[2] < 0.0;
+        let keep: Vec<bool> = w
+            .positions
+            .iter()
+            .map(|p| !(on_face_1(p) && p[1] > 30.0))
+            .collect();
+        fn pick<T>(v: &mut Vec<T>, keep: &[bool]) {
+            let mut k = keep.iter();
+            v.retain(|_| *k.next().unwrap());
+        }
+        pick(&mut w.positions, &keep);
+        pick(&mut w.faces.label, &keep);
+        pick(&mut w.features.candidate, &keep);
+        pick(&mut w.features.outlier, &keep);
+        w.scale = LocalScale::uniform(w.positions.len(), w.scale.around(0..1).unwrap());
+        let found = edges_of(&w);
+        assert_eq!(found.len(), 1, "{found:?}");
+        let e = &found[0];
+        let (y0, y1) = (e.start[1].min(e.end[1]), e.start[1].max(e.end[1]));
+        let (r, step) = (12.0, 3.0);
+        assert!(y0 < 1.0, "starts at {y0}");
+        assert!(
+            y1 > 30.0 - step && y1 <= 30.0 + 0.5 * r + step,
+            "ends at {y1}, face 1 at 30"
+        );
     }
 
     /// Points of the profile `curve(s)` (in the xz-plane) for s in [-w, w], every `step`,
