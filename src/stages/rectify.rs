@@ -244,7 +244,15 @@ pub fn rectify_plane_edges(
         };
         zones[k] = Some(zone);
         let max_move = params.max_move * sc.radius;
-        for &(i, _, q, moved) in near.iter().filter(|x| x.1 <= zone) {
+        // As along a fitted edge: a point off both face traces (on another surface beside the
+        // edge, behind it) counts its whole distance from the edge, less what its noise may
+        // add; measured along the faces alone it is at 0 and was pulled onto the edge line
+        // from 20-45 spacings away (`bench --random 100 --seed 1`, r099).
+        let within = |x: &&(u32, f64, [f64; 3], f64)| {
+            let off_face = across(positions[x.0 as usize], e.start, d) - 2.0 * sc.noise;
+            x.1.max(off_face) <= zone
+        };
+        for &(i, _, q, moved) in near.iter().filter(within) {
             let i = i as usize;
             out.label[i] = id(k);
             if params.enabled && moved <= max_move {
@@ -408,6 +416,84 @@ pub fn onto_traces(p: [f64; 3], c: [f64; 3], d: [f64; 3], faces: &[[f64; 3]; 2])
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::stages::faces::NO_FACE;
+    use crate::stages::features::LocalScale;
+
+    #[test]
+    fn issue17_a_point_behind_a_plane_edge_is_not_pulled_onto_it() {
+        // A 90° edge along z (faces along +x and +y), spacing 0.5: candidates on both faces
+        // from 0.5 out to 8, those within 1 of the edge lifted 0.3 off their face (the
+        // rounding: a zone of 1.5 and the margin), and
+        // one candidate behind the edge, 3 from it on another surface (a step below).
+        let sc = Scale {
+            spacing: 0.5,
+            pitch: 0.5,
+            noise: 0.01,
+            radius: 4.0,
+        };
+        let mut positions = Vec::new();
+        for k in 0..=80 {
+            let z = 0.5 * k as f64;
+            for j in 1..=16 {
+                let s = 0.5 * j as f64;
+                let lift = if s <= 1.0 { 0.3 } else { 0.0 };
+                positions.push([s, lift, z]);
+                positions.push([lift, s, z]);
+            }
+        }
+        let behind = positions.len();
+        positions.push([-2.1, -2.1, 20.0]);
+        let n = positions.len();
+        let grid = Grid::new(&positions, 4.0).unwrap();
+        let scale = LocalScale::uniform(n, sc);
+        let outlier = vec![false; n];
+        let surface = Surface {
+            positions: &positions,
+            outlier: &outlier,
+            grid: &grid,
+            scale: &scale,
+        };
+        let edge = FaceEdge {
+            corners: [None, None],
+            faces: [0, 1],
+            start: [0.0, 0.0, 0.0],
+            end: [0.0, 0.0, 40.0],
+            points: n,
+            traces: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
+            scale: sc,
+        };
+        let faces = Faces {
+            label: vec![NO_FACE; n],
+            planes: Vec::new(),
+        };
+        let mut out = Rectified {
+            positions: positions.clone(),
+            moved: vec![false; n],
+            label: vec![u32::MAX; n],
+        };
+        let params = RectifyParams::default();
+        rectify_plane_edges(
+            &mut out,
+            &surface,
+            &vec![true; n],
+            &[edge],
+            &faces,
+            0,
+            &params,
+        );
+        // The rounding moves onto the faces (away from the edge's ends)...
+        let lifted = positions
+            .iter()
+            .enumerate()
+            .filter(|(_, p)| (4.5..35.5).contains(&p[2]) && p[0].min(p[1]) > 0.2);
+        for (i, p) in lifted {
+            assert!(out.moved[i], "{p:?}");
+            assert!(out.positions[i][0].min(out.positions[i][1]).abs() < 1e-12);
+        }
+        // ...but the point behind the edge stays where it was read.
+        assert!(!out.moved[behind], "{:?}", out.positions[behind]);
+        assert_eq!(out.positions[behind], positions[behind]);
+    }
 
     #[test]
     fn onto_traces_moves_within_the_profile_plane_to_the_nearer_face() {
