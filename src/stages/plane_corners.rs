@@ -613,9 +613,10 @@ pub fn place_corners(found: &[FaceCorner], corners: &mut Vec<CornerFit>) -> Vec<
 
 /// Places the plane edges: a fitted straight edge along one (see [`overlaps`], within 1.5
 /// spacings) takes its exact line, from corner to corner where the plane edge has corners
-/// (an end without one keeps the fitted end, moved onto the line); the others are returned
-/// as edges of their own, their `corners` turned into indices of the reported corners
-/// (`corner_index`, from [`place_corners`]).
+/// (an end without one keeps the fitted end, moved onto the line); one that runs along a
+/// fitted curved edge (a polyline) over half its length or more is that edge and is dropped;
+/// the others are returned as edges of their own, their `corners` turned into indices of the
+/// reported corners (`corner_index`, from [`place_corners`]).
 pub fn place_edges(
     edges: &[FaceEdge],
     found: &[FaceCorner],
@@ -626,12 +627,17 @@ pub fn place_edges(
     for fe in edges {
         let ends = fe.corners.map(|c| c.map(|c| corner_index[c]));
         let tolerance = 1.5 * fe.corners[0].map_or(fe.scale.spacing, |c| found[c].scale.spacing);
-        let same = geometry.iter_mut().flatten().find(|g| {
-            g.polyline.len() == 2
-                && overlaps(fe.start, fe.end, g.polyline[0], g.polyline[1], tolerance)
+        let same = geometry.iter().position(|g| {
+            g.as_ref().is_some_and(|g| {
+                g.polyline.len() == 2
+                    && overlaps(fe.start, fe.end, g.polyline[0], g.polyline[1], tolerance)
+            })
         });
         match same {
-            Some(g) => {
+            Some(k) => {
+                let Some(g) = geometry[k].as_mut() else {
+                    continue;
+                };
                 let points = [fe.start, fe.end];
                 let along = sub(fe.end, fe.start);
                 let on_line = |p: [f64; 3]| {
@@ -671,6 +677,14 @@ pub fn place_edges(
                     }
                 }
             }
+            // A fitted curved edge (a polyline) along most of it is the same edge, found by
+            // its slabs: the plane edge is a chord of it between two faces grown on gently
+            // curved patches (the faceted fandisk's strips: 145 edges reported instead of
+            // 91, edge length 1.7x the true length). It keeps the fitted polyline.
+            None if geometry
+                .iter()
+                .flatten()
+                .any(|g| g.polyline.len() > 2 && along_polyline(fe, g, tolerance)) => {}
             None => own.push(FaceEdge {
                 corners: ends,
                 ..fe.clone()
@@ -680,9 +694,67 @@ pub fn place_edges(
     own
 }
 
+/// Whether most of the plane edge `fe` (at least half of it, sampled every `tolerance`
+/// along it, up to 1,024 samples) lies within `tolerance` of the polyline of `g`.
+fn along_polyline(fe: &FaceEdge, g: &EdgeGeometry, tolerance: f64) -> bool {
+    let length = norm(sub(fe.end, fe.start));
+    if tolerance.is_nan() || tolerance <= 0.0 || length == 0.0 {
+        return false;
+    }
+    let n = ((length / tolerance).ceil() as usize).clamp(2, 1024);
+    let near = (0..n)
+        .filter(|&i| {
+            let p = axpy(fe.start, (i as f64 + 0.5) / n as f64, sub(fe.end, fe.start));
+            norm(sub(p, g.nearest(p).0)) <= tolerance
+        })
+        .count();
+    2 * near >= n
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_plane_edge_along_a_fitted_curved_edge_is_that_edge() {
+        // A fitted arc of radius 100 in the xy-plane (polyline every 2°), spacing 1.
+        let arc: Vec<[f64; 3]> = (0..=30)
+            .map(|k| {
+                let a = (2.0 * k as f64).to_radians();
+                [100.0 * a.cos(), 100.0 * a.sin(), 0.0]
+            })
+            .collect();
+        let mut geometry = vec![Some(EdgeGeometry {
+            run: 0,
+            polyline: arc.clone(),
+            corners: [None, None],
+        })];
+        let sc = Scale {
+            spacing: 1.0,
+            pitch: 1.0,
+            noise: 0.01,
+            radius: 4.0,
+        };
+        let edge = |start: [f64; 3], end: [f64; 3]| FaceEdge {
+            corners: [None, None],
+            faces: [0, 1],
+            start,
+            end,
+            points: 100,
+            traces: [[0.0, 0.0, 1.0], [1.0, 0.0, 0.0]],
+            scale: sc,
+        };
+        // A chord of 10° (sagitta 0.38) along the arc, one 3 off it, and one along it over
+        // a third of its length only.
+        let on = edge(arc[5], arc[10]);
+        let off = edge(add(arc[5], [0.0, 0.0, 3.0]), add(arc[10], [0.0, 0.0, 3.0]));
+        let beyond = edge(arc[29], axpy(arc[29], 3.0, sub(arc[30], arc[29])));
+        let own = place_edges(&[on, off.clone(), beyond.clone()], &[], &[], &mut geometry);
+        assert_eq!(own.len(), 2, "{own:?}");
+        assert_eq!((own[0].start, own[1].start), (off.start, beyond.start));
+        // The fitted arc is left as it was.
+        assert_eq!(geometry[0].as_ref().unwrap().polyline, arc);
+    }
 
     fn plane(normal: [f64; 3], point: [f64; 3]) -> Plane {
         let l = norm(normal);
