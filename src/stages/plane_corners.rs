@@ -627,17 +627,12 @@ pub fn place_edges(
     for fe in edges {
         let ends = fe.corners.map(|c| c.map(|c| corner_index[c]));
         let tolerance = 1.5 * fe.corners[0].map_or(fe.scale.spacing, |c| found[c].scale.spacing);
-        let same = geometry.iter().position(|g| {
-            g.as_ref().is_some_and(|g| {
-                g.polyline.len() == 2
-                    && overlaps(fe.start, fe.end, g.polyline[0], g.polyline[1], tolerance)
-            })
+        let same = geometry.iter_mut().flatten().find(|g| {
+            g.polyline.len() == 2
+                && overlaps(fe.start, fe.end, g.polyline[0], g.polyline[1], tolerance)
         });
         match same {
-            Some(k) => {
-                let Some(g) = geometry[k].as_mut() else {
-                    continue;
-                };
+            Some(g) => {
                 let points = [fe.start, fe.end];
                 let along = sub(fe.end, fe.start);
                 let on_line = |p: [f64; 3]| {
@@ -681,14 +676,18 @@ pub fn place_edges(
             // its slabs: the plane edge is a chord of it between two faces grown on gently
             // curved patches (the faceted fandisk's strips: 145 edges reported instead of
             // 91, edge length 1.7x the true length). It keeps the fitted polyline.
-            None if geometry
-                .iter()
-                .flatten()
-                .any(|g| g.polyline.len() > 2 && along_polyline(fe, g, tolerance)) => {}
-            None => own.push(FaceEdge {
-                corners: ends,
-                ..fe.clone()
-            }),
+            None => {
+                let chord = geometry
+                    .iter()
+                    .flatten()
+                    .any(|g| g.polyline.len() > 2 && along_polyline(fe, g, tolerance));
+                if !chord {
+                    own.push(FaceEdge {
+                        corners: ends,
+                        ..fe.clone()
+                    });
+                }
+            }
         }
     }
     own

@@ -106,11 +106,9 @@ pub fn rectify(
                 let (c, d) = g.nearest(p);
                 let faces = faces.map(|f| orthogonalise(f, d));
                 // Beyond the measured zone the scan is on its face already: leave it as read.
-                // The zone is measured along the faces; a point off both face traces (beside
-                // another surface near the edge) counts its whole distance from the edge, less
-                // what its noise may add across its face.
-                let off_face = across(p, c, d) - 2.0 * scale.noise;
-                if along_face(p, c, d, &faces).max(off_face) > e.zone + zone_margin {
+                if zone_reach(along_face(p, c, d, &faces), p, c, d, scale.noise)
+                    > e.zone + zone_margin
+                {
                     continue;
                 }
                 let q = onto_traces(p, c, d, &faces);
@@ -244,13 +242,11 @@ pub fn rectify_plane_edges(
         };
         zones[k] = Some(zone);
         let max_move = params.max_move * sc.radius;
-        // As along a fitted edge: a point off both face traces (on another surface beside the
-        // edge, behind it) counts its whole distance from the edge, less what its noise may
-        // add; measured along the faces alone it is at 0 and was pulled onto the edge line
-        // from 20-45 spacings away (`bench --random 100 --seed 1`, r099).
+        // As along a fitted edge (`zone_reach`): measured along the faces alone, a point
+        // behind the edge is at 0 and was pulled onto the edge line from 20-45 spacings away
+        // (`bench --random 100 --seed 1`, r099).
         let within = |x: &&(u32, f64, [f64; 3], f64)| {
-            let off_face = across(positions[x.0 as usize], e.start, d) - 2.0 * sc.noise;
-            x.1.max(off_face) <= zone
+            zone_reach(x.1, positions[x.0 as usize], e.start, d, sc.noise) <= zone
         };
         for &(i, _, q, moved) in near.iter().filter(within) {
             let i = i as usize;
@@ -386,6 +382,15 @@ fn along_face(p: [f64; 3], c: [f64; 3], d: [f64; 3], faces: &[[f64; 3]; 2]) -> f
         .min_by(|a, b| a.0.total_cmp(&b.0))
         .map(|x| x.1)
         .unwrap_or(0.0)
+}
+
+/// How far into an edge's abnormal zone a point `p` lies, for the zone test of both the
+/// fitted and the plane edges: its distance `along` the nearer face trace from the edge
+/// (line through `c`, unit `d`), or, for a point off both traces (beside another surface
+/// near the edge, behind it), its whole distance from the edge, less what its noise may add
+/// across its face (two sigmas of `noise`).
+fn zone_reach(along: f64, p: [f64; 3], c: [f64; 3], d: [f64; 3], noise: f64) -> f64 {
+    along.max(across(p, c, d) - 2.0 * noise)
 }
 
 /// Distance of `p` from the edge line through `c` along unit `d`.
