@@ -54,9 +54,14 @@ const MIN_SUPPORT: usize = 3;
 /// the sine-like measure of how well their intersection is defined (0.17 ≈ sin 10°).
 const MIN_DETERMINANT: f64 = 0.17;
 /// The corner lies within this many radii of its nearest supporting candidate, and each of
-/// its faces has points within `FACE_NEAR` radii of it: planes of faces that do not meet
-/// there intersect somewhere else.
+/// its faces has points within `FACE_AT` radii of it: planes of faces that do not meet
+/// there intersect somewhere else (a hole's wall and the two faces of an edge that passes
+/// a few radii from the hole's rim). Faces reach into their edges' candidate bands
+/// (`faces::reach_edges`), so at a true corner each comes as close as its rounding allows.
 const ON_CANDIDATES: f64 = 2.5;
+const FACE_AT: f64 = 2.0;
+/// The faces' points within this many radii of a corner tell which side of each plane the
+/// others lie on.
 const FACE_NEAR: f64 = 4.0;
 /// Corners closer than this many radii are one (the best supported kept, the faces pooled).
 const SAME_CORNER: f64 = 2.0;
@@ -152,7 +157,7 @@ pub fn face_corners(
             continue;
         }
         let mut near = [false; 3];
-        grid.for_each_within(position, FACE_NEAR * r, |j, _, _| {
+        grid.for_each_within(position, FACE_AT * r, |j, _, _| {
             let l = faces.label[j as usize];
             for k in 0..3 {
                 near[k] |= l == triple[k];
