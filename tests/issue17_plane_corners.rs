@@ -94,3 +94,61 @@ fn a_sphere_has_no_planar_face_and_no_corner() {
     assert!(out.corners.is_empty(), "{:?}", out.corners);
     assert!(out.edges.is_empty(), "{} edges", out.edges.len());
 }
+
+/// The true corners found within 3 spacings, and the found corners farther than 3 spacings
+/// from every true corner.
+fn corner_score(out: &Outcome, gt: &GroundTruth) -> (usize, usize) {
+    let h = gt.spacing;
+    let near = |p: [f64; 3], q: &mut dyn Iterator<Item = [f64; 3]>| {
+        q.map(|q| dist(p, q)).fold(f64::INFINITY, f64::min) < 3.0 * h
+    };
+    let found = gt
+        .corners
+        .iter()
+        .filter(|c| near(c.position, &mut out.corners.iter().map(|f| f.position)))
+        .count();
+    let spurious = out
+        .corners
+        .iter()
+        .filter(|f| !near(f.position, &mut gt.corners.iter().map(|c| c.position)))
+        .count();
+    (found, spurious)
+}
+
+/// Seed 1's r089 of `bench --random 100` (here sampled uniformly): a plate with a
+/// four-sided hole through it, whose walls meet at 43° inside. Face growth stops at every
+/// edge's candidate band, so the walls stopped radii short of their rims and the 8 rim
+/// corners had no face triple to vote for (16 of 26 corners found). Faces now reach into the
+/// bands (`faces::reach_edges`).
+#[test]
+fn issue17_the_rim_corners_of_a_hole_with_an_acute_wall_are_found() {
+    let (out, gt) = run_part_seeded(13773340563672390672, 62_804, 0.1, 0.81);
+    let (found, spurious) = corner_score(&out, &gt);
+    // Without the reach: 23 of 26.
+    assert!(
+        found + 1 >= gt.corners.len(),
+        "{found} of {} corners found",
+        gt.corners.len()
+    );
+    assert!(spurious <= 1, "{spurious} spurious corners");
+}
+
+/// Seed 1's r063: a hole whose rim passes 9 spacings from an edge of the part. Once faces
+/// reach their edges, the hole's wall came within 4 radii of the point where its plane
+/// meets that edge's two faces, and a corner was reported there (two of them); a corner now
+/// needs each face within 2 radii.
+#[test]
+fn issue17_no_corner_where_a_holes_wall_plane_meets_a_nearby_edge() {
+    let (out, gt) = run_part_seeded(4108049579026812151, 103_740, 0.011, 1.78);
+    let (found, spurious) = corner_score(&out, &gt);
+    assert_eq!(spurious, 0, "{found} of {} found", gt.corners.len());
+    assert!(
+        found + 2 >= gt.corners.len(),
+        "{found} of {} found",
+        gt.corners.len()
+    );
+}
+
+fn run_part_seeded(seed: u64, points: usize, noise: f64, round: f64) -> (Outcome, GroundTruth) {
+    synth_common::run_part(sharpedge::synth::Part::Random, points, noise, round, seed)
+}
