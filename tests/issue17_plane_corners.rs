@@ -122,7 +122,7 @@ fn corner_score(out: &Outcome, gt: &GroundTruth) -> (usize, usize) {
 /// bands (`faces::reach_edges`).
 #[test]
 fn issue17_the_rim_corners_of_a_hole_with_an_acute_wall_are_found() {
-    let (out, gt) = run_part_seeded(13773340563672390672, 62_804, 0.1, 0.81);
+    let (out, gt) = synth_common::run_part(Part::Random, 62_804, 0.1, 0.81, 13773340563672390672);
     let (found, spurious) = corner_score(&out, &gt);
     // Without the reach: 23 of 26.
     assert!(
@@ -139,7 +139,7 @@ fn issue17_the_rim_corners_of_a_hole_with_an_acute_wall_are_found() {
 /// needs each face within 2 radii.
 #[test]
 fn issue17_no_corner_where_a_holes_wall_plane_meets_a_nearby_edge() {
-    let (out, gt) = run_part_seeded(4108049579026812151, 103_740, 0.011, 1.78);
+    let (out, gt) = synth_common::run_part(Part::Random, 103_740, 0.011, 1.78, 4108049579026812151);
     let (found, spurious) = corner_score(&out, &gt);
     assert_eq!(spurious, 0, "{found} of {} found", gt.corners.len());
     assert!(
@@ -147,8 +147,4 @@ fn issue17_no_corner_where_a_holes_wall_plane_meets_a_nearby_edge() {
         "{found} of {} found",
         gt.corners.len()
     );
-}
-
-fn run_part_seeded(seed: u64, points: usize, noise: f64, round: f64) -> (Outcome, GroundTruth) {
-    synth_common::run_part(sharpedge::synth::Part::Random, points, noise, round, seed)
 }

@@ -53,6 +53,12 @@ const NORMAL_TOLERANCE: f64 = 15.0;
 /// `PLANE_SLACK` spacings, for noise-free scans).
 const PLANE_SIGMAS: f64 = 3.0;
 const PLANE_SLACK: f64 = 0.05;
+
+/// How far off a face's plane a point may lie and join it, at noise sigma `noise` and
+/// spacing `spacing`.
+fn plane_tolerance(noise: f64, spacing: f64) -> f64 {
+    PLANE_SIGMAS * noise + PLANE_SLACK * spacing
+}
 /// Neighbours within this many local spacings are reached from a face point: sampling gaps
 /// of scan lines and grids are measured in the local spacing, so two bridge them.
 const REACH: f64 = 2.0;
@@ -228,7 +234,7 @@ fn reach_edges(
     let tolerance: Vec<f64> = state
         .planes
         .iter()
-        .map(|p| PLANE_SIGMAS * p.noise + PLANE_SLACK * p.spacing)
+        .map(|p| plane_tolerance(p.noise, p.spacing))
         .collect();
     let open = |i: usize, label: &[u32]| {
         label[i] == NO_FACE && features.candidate[i] && !features.outlier[i]
@@ -240,25 +246,35 @@ fn reach_edges(
             / tolerance[f as usize];
         (d <= 1.0).then_some((j, d, f))
     };
+    let reach = |i: u32| REACH * f64::from(scale.spacing[i as usize]);
+    // Offers are sorted below, so the order in which workers collect them does not matter.
+    let join = |mut a: Vec<(u32, f64, u32)>, mut b: Vec<(u32, f64, u32)>| {
+        a.append(&mut b);
+        a
+    };
     // The first ring, asked from the candidates' side (fewer than the face points): each
     // open candidate and the faces among its neighbours.
     let mut offers: Vec<(u32, f64, u32)> = (0..positions.len() as u32)
         .into_par_iter()
         .filter(|&j| open(j as usize, &state.label))
-        .flat_map_iter(|j| {
-            let mut near: Vec<u32> = Vec::new();
-            let reach = REACH * f64::from(scale.spacing[j as usize]);
-            grid.for_each_within(positions[j as usize], reach, |i, _, _| {
-                let f = state.label[i as usize];
-                if f != NO_FACE && !near.contains(&f) {
-                    near.push(f);
-                }
-            });
-            near.into_iter().filter_map(move |f| offer(j, f))
-        })
-        .collect();
+        .fold(
+            || (Vec::new(), Vec::new()),
+            |(mut out, mut near): (Vec<(u32, f64, u32)>, Vec<u32>), j| {
+                near.clear();
+                grid.for_each_within(positions[j as usize], reach(j), |i, _, _| {
+                    let f = state.label[i as usize];
+                    if f != NO_FACE && !near.contains(&f) {
+                        near.push(f);
+                    }
+                });
+                out.extend(near.iter().filter_map(|&f| offer(j, f)));
+                (out, near)
+            },
+        )
+        .map(|(out, _)| out)
+        .reduce(Vec::new, join);
     loop {
-        offers.sort_by(|a, b| a.0.cmp(&b.0).then(a.1.total_cmp(&b.1)).then(a.2.cmp(&b.2)));
+        offers.sort_unstable_by(|a, b| a.0.cmp(&b.0).then(a.1.total_cmp(&b.1)).then(a.2.cmp(&b.2)));
         let ring: Vec<u32> = offers
             .chunk_by(|a, b| a.0 == b.0)
             .map(|o| {
@@ -272,18 +288,16 @@ fn reach_edges(
         }
         offers = ring
             .par_iter()
-            .flat_map_iter(|&i| {
+            .fold(Vec::new, |mut out, &i| {
                 let f = state.label[i as usize];
-                let reach = REACH * f64::from(scale.spacing[i as usize]);
-                let mut out = Vec::new();
-                grid.for_each_within(positions[i as usize], reach, |j, _, _| {
+                grid.for_each_within(positions[i as usize], reach(i), |j, _, _| {
                     if open(j as usize, &state.label) {
                         out.extend(offer(j, f));
                     }
                 });
                 out
             })
-            .collect();
+            .reduce(Vec::new, join);
     }
 }
 
@@ -373,8 +387,7 @@ fn grow(
                 }
                 let nj = normals[j].map(f64::from);
                 let d = sub(positions[j], origin);
-                let tol = PLANE_SIGMAS * f64::from(scale.noise[j])
-                    + PLANE_SLACK * f64::from(scale.spacing[j]);
+                let tol = plane_tolerance(f64::from(scale.noise[j]), f64::from(scale.spacing[j]));
                 if dot(nj, normal).abs() < cos_tol || dot(normal, sub(d, centre)).abs() > tol {
                     if refused_by[j] != stamp {
                         refused_by[j] = stamp;
@@ -963,6 +976,13 @@ mod tests {
         pts
     }
 
+    /// The axis (0, 1, 2) along which a plane's normal points most.
+    fn axis_of(p: &Plane) -> usize {
+        (0..3)
+            .max_by(|&a, &b| p.normal[a].abs().total_cmp(&p.normal[b].abs()))
+            .unwrap()
+    }
+
     #[test]
     fn a_box_has_six_planar_faces_and_a_sphere_none() {
         let pts = box_surface(40.0, 30.0, 20.0, 1.0);
@@ -970,9 +990,7 @@ mod tests {
         assert_eq!(faces.planes.len(), 6, "{:?}", faces.planes);
         for p in &faces.planes {
             // Each plane is one of x, y, z = 0 or the far side.
-            let axis = (0..3)
-                .max_by(|&a, &b| p.normal[a].abs().total_cmp(&p.normal[b].abs()))
-                .unwrap();
+            let axis = axis_of(p);
             assert!(p.normal[axis].abs() > 0.9999, "{p:?}");
             let at = p.centroid[axis];
             let sides = [0.0, [40.0, 30.0, 20.0][axis]];
@@ -1009,9 +1027,7 @@ mod tests {
             .planes
             .iter()
             .map(|p| {
-                let axis = (0..3)
-                    .max_by(|&i, &j| p.normal[i].abs().total_cmp(&p.normal[j].abs()))
-                    .unwrap();
+                let axis = axis_of(p);
                 let at = if p.centroid[axis] > 1.0 {
                     [a, b, c][axis]
                 } else {
