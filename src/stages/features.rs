@@ -283,10 +283,9 @@ fn normal_tensor(
     q: [f64; 3],
     r: f64,
 ) -> ([f64; 3], [f64; 3]) {
-    let mut t = [0.0f64; 6];
-    let mut c = 0.0f64;
     // Weight 1 leaves every product as it was (x * 1.0 == x): the same sums, bit for bit.
-    let mut add = |n: [f32; 3], w: f64| {
+    // The sums go by value through the fold, which keeps them in registers.
+    let add = |(mut t, mut c): ([f64; 6], f64), n: [f32; 3], w: f64| {
         let m = n.map(f64::from);
         t[0] += w * m[0] * m[0];
         t[1] += w * m[0] * m[1];
@@ -295,16 +294,25 @@ fn normal_tensor(
         t[4] += w * m[1] * m[2];
         t[5] += w * m[2] * m[2];
         c += w;
+        (t, c)
     };
-    match crowd {
-        None => grid.for_each_in_block_weighted(block, q, r, |s, _, w| add(normal[s], w)),
-        Some(crowd) => crowd.grid.for_each_within(q, r, |k, _, _| {
-            add(
-                normal[crowd.ids[k as usize] as usize],
-                crowd.weight[k as usize],
-            )
-        }),
-    }
+    let zero = ([0.0f64; 6], 0.0f64);
+    let (t, c) = match crowd {
+        None => {
+            grid.fold_in_block_weighted(block, q, r, zero, |acc, s, _, w| add(acc, normal[s], w))
+        }
+        Some(crowd) => {
+            let mut acc = zero;
+            crowd.grid.for_each_within(q, r, |k, _, _| {
+                acc = add(
+                    acc,
+                    normal[crowd.ids[k as usize] as usize],
+                    crowd.weight[k as usize],
+                )
+            });
+            acc
+        }
+    };
     if c == 0.0 {
         return ([0.0; 3], [0.0; 3]);
     }
