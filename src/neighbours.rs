@@ -209,12 +209,19 @@ impl Grid {
             }
             (ids, Layout::Dense { starts })
         } else {
-            let mut ids: Vec<u32> = (0..positions.len() as u32).collect();
-            ids.par_sort_by_key(|&i| (keys[i as usize], i));
+            // The (key, id) pairs themselves are sorted, not ids by a key looked up at every
+            // comparison (a cache miss each): the pairs are distinct, so the order is the
+            // same.
+            let mut pairs: Vec<(Key, u32)> = keys
+                .par_iter()
+                .enumerate()
+                .map(|(i, &k)| (k, i as u32))
+                .collect();
+            pairs.par_sort_unstable();
+            let ids: Vec<u32> = pairs.iter().map(|&(_, i)| i).collect();
             let mut ukeys = Vec::new();
             let mut starts = Vec::new();
-            for (slot, &i) in ids.iter().enumerate() {
-                let k = keys[i as usize];
+            for (slot, &(k, _)) in pairs.iter().enumerate() {
                 if ukeys.last() != Some(&k) {
                     ukeys.push(k);
                     starts.push(slot as u32);
@@ -843,14 +850,21 @@ const F32_CROWD: usize = 32;
 fn crowded_in_f32(positions: &[[f64; 3]], local: &[[f32; 3]]) -> bool {
     // + 0.0 turns −0 into +0: equal coordinates, equal bits.
     let bits = |p: &[f32; 3]| p.map(|x| (x + 0.0).to_bits());
-    let mut ids: Vec<u32> = (0..local.len() as u32).collect();
-    ids.par_sort_unstable_by_key(|&i| bits(&local[i as usize]));
-    ids.chunk_by(|&a, &b| bits(&local[a as usize]) == bits(&local[b as usize]))
+    // Sorting (bits, id) pairs, not ids by bits looked up at every comparison (a cache miss
+    // each): only the groups of equal bits matter, and they are the same.
+    let mut pairs: Vec<([u32; 3], u32)> = local
+        .par_iter()
+        .enumerate()
+        .map(|(i, p)| (bits(p), i as u32))
+        .collect();
+    pairs.par_sort_unstable();
+    pairs
+        .chunk_by(|a, b| a.0 == b.0)
         .filter(|group| group.len() > F32_CROWD)
         .any(|group| {
             let mut exact: Vec<[u64; 3]> = group
                 .iter()
-                .map(|&i| positions[i as usize].map(|x| (x + 0.0).to_bits()))
+                .map(|&(_, i)| positions[i as usize].map(|x| (x + 0.0).to_bits()))
                 .collect();
             exact.sort_unstable();
             exact.dedup();
