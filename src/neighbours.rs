@@ -72,41 +72,6 @@ pub struct Block {
     nrows: u8,
 }
 
-/// The points of a [`Block`]'s 27 cells, gathered once for all the queries from its cell
-/// ([`Grid::gather_block`]): their slots and local coordinates in the block's visiting order
-/// (rows in order, slots ascending), the coordinates as one array per axis so the distance
-/// test runs over them in SIMD lanes.
-#[derive(Default)]
-pub struct Near {
-    slots: Vec<u32>,
-    x: Vec<f64>,
-    y: Vec<f64>,
-    z: Vec<f64>,
-}
-
-impl Near {
-    /// Words of a hit mask over these points ([`Grid::fold_block_hits`]): one bit each.
-    pub fn words(&self) -> usize {
-        self.slots.len().div_ceil(64)
-    }
-
-    /// `f(acc, slot)` over the points whose bits `mask` sets (from [`Grid::fold_block_hits`]
-    /// on these points), in the block's visiting order; returns the accumulator.
-    #[inline]
-    pub fn fold_mask<A>(&self, mask: &[u64], init: A, mut f: impl FnMut(A, usize) -> A) -> A {
-        let mut acc = init;
-        for (w, &bits) in mask.iter().enumerate() {
-            let mut b = bits;
-            while b != 0 {
-                let j = w * 64 + b.trailing_zeros() as usize;
-                acc = f(acc, self.slots[j] as usize);
-                b &= b - 1;
-            }
-        }
-        acc
-    }
-}
-
 enum Layout {
     /// `starts[c]..starts[c + 1]` are the slots of cell `c`; used when the grid is not much
     /// larger than the cloud.
@@ -454,9 +419,8 @@ impl Grid {
     /// in no predictable pattern, and the mispredicted branches cost more than the sums of
     /// the others (the features stage of a 1,000,000-point box: 0.72 s with the branch,
     /// 0.65 s without; collecting the hits first without a branch, then summing them, took
-    /// 0.81 s, but testing them into a bit mask that a second pass reuses is faster still:
-    /// [`Self::fold_block_hits`]). Radii wider than the cell: only the points within `r`,
-    /// weight 1. Slots index [`Self::in_slot_order`] arrays.
+    /// 0.81 s). Radii wider than the cell: only the points within `r`, weight 1. Slots index
+    /// [`Self::in_slot_order`] arrays.
     #[inline]
     pub fn for_each_in_block_weighted(
         &self,
@@ -477,77 +441,6 @@ impl Grid {
                 f(a as usize + s, d, f64::from(u8::from(d2 <= r2)));
             }
         }
-    }
-
-    /// Gathers the points of `block`'s 27 cells into `near` (see [`Near`]).
-    pub fn gather_block(&self, block: &Block, near: &mut Near) {
-        near.slots.clear();
-        near.x.clear();
-        near.y.clear();
-        near.z.clear();
-        for &(a, b) in &block.rows[..block.nrows as usize] {
-            near.slots.extend(a..b);
-            for p in &self.local[a as usize..b as usize] {
-                near.x.push(p[0]);
-                near.y.push(p[1]);
-                near.z.push(p[2]);
-            }
-        }
-    }
-
-    /// Whether a query of radius `r` from a block's cell finds all its neighbours in the
-    /// block's 27 cells ([`Self::fold_block_hits`]); wider ones take
-    /// [`Self::fold_in_block_weighted`].
-    #[inline]
-    pub fn block_holds(&self, r: f64) -> bool {
-        r <= self.cell * (1.0 + 1e-12)
-    }
-
-    /// The points of `near` (gathered from `block`, for a query `q` inside its cell, `r`
-    /// narrow enough: [`Self::block_holds`]) within `r` of `q`: appends their mask
-    /// ([`Near::words`] words, bit j for point j) to `mask`, and folds `f(acc, slot,
-    /// offset)` over them in [`Self::for_each_within_block`]'s order; returns the
-    /// accumulator. The same points and offsets as [`Self::for_each_in_block_weighted`]
-    /// with weight 1 (the same test, `d2 <= r * r`, on the same numbers), so sums over them
-    /// are bit for bit the weighted sums (x + 0 = x). Testing every point first and summing
-    /// the third of them within `r` halves the work of weighing them all (the features
-    /// stage sums ten moments per point), and the mask lets a second pass over the same
-    /// neighbourhoods skip the test ([`Near::fold_mask`]).
-    #[inline]
-    pub fn fold_block_hits<A>(
-        &self,
-        near: &Near,
-        q: [f64; 3],
-        r: f64,
-        mask: &mut Vec<u64>,
-        init: A,
-        mut f: impl FnMut(A, usize, [f64; 3]) -> A,
-    ) -> A {
-        let ql = self.local_of(q);
-        let r2 = r * r;
-        let first = mask.len();
-        let n = near.slots.len();
-        for w in 0..near.words() {
-            let (lo, hi) = (w * 64, (w * 64 + 64).min(n));
-            let mut bits = 0u64;
-            for (b, j) in (lo..hi).enumerate() {
-                let d = [near.x[j] - ql[0], near.y[j] - ql[1], near.z[j] - ql[2]];
-                let d2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-                bits |= u64::from(d2 <= r2) << b;
-            }
-            mask.push(bits);
-        }
-        let mut acc = init;
-        for w in 0..near.words() {
-            let mut b = mask[first + w];
-            while b != 0 {
-                let j = w * 64 + b.trailing_zeros() as usize;
-                let d = [near.x[j] - ql[0], near.y[j] - ql[1], near.z[j] - ql[2]];
-                acc = f(acc, near.slots[j] as usize, d);
-                b &= b - 1;
-            }
-        }
-        acc
     }
 
     /// [`Self::for_each_in_block_weighted`] as a fold: `f(acc, slot, offset, weight)` returns
@@ -1328,37 +1221,6 @@ mod tests {
                     got.sort_unstable();
                     let want = brute_within(&pts, q, r);
                     assert_eq!(got, want, "r={r} q={q:?}");
-                    // The mask path: the same points and sums, bit for bit, and the mask
-                    // folds over the same slots again.
-                    if grid.block_holds(r) {
-                        let mut near = Near::default();
-                        grid.gather_block(block, &mut near);
-                        let mut mask = Vec::new();
-                        let (hits, masked) = grid.fold_block_hits(
-                            &near,
-                            q,
-                            r,
-                            &mut mask,
-                            (Vec::new(), [0.0; 3]),
-                            |(mut h, mut m), s, d| {
-                                h.push(s);
-                                for k in 0..3 {
-                                    m[k] += d[k];
-                                }
-                                (h, m)
-                            },
-                        );
-                        assert_eq!(mask.len(), near.words());
-                        assert_eq!(masked, sum, "masked sums must equal the weighted ones");
-                        let mut ids_hit: Vec<u32> = hits.iter().map(|&s| ids[s]).collect();
-                        ids_hit.sort_unstable();
-                        assert_eq!(ids_hit, want);
-                        let again = near.fold_mask(&mask, Vec::new(), |mut h, s| {
-                            h.push(s);
-                            h
-                        });
-                        assert_eq!(again, hits);
-                    }
                     let mut exact = [0.0; 3];
                     grid.for_each_within_block(block, q, r, |_, d, _| {
                         for k in 0..3 {

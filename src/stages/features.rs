@@ -24,7 +24,7 @@ use rayon::prelude::*;
 
 use crate::geometry::eigen3;
 pub use crate::geometry::moments::{LocalPca, add_moments, add_moments_weighted, pca_from_moments};
-use crate::neighbours::{Block, Crowd, Grid, Near};
+use crate::neighbours::{Block, Crowd, Grid};
 use crate::progress::Progress;
 pub use crate::stages::scale::{LocalScale, NORMAL_RADIUS, Scale, ScaleRules};
 
@@ -159,53 +159,24 @@ pub fn features(
     let mut sharpness = vec![0.0f32; n];
     let mut variation = vec![0.0f32; n];
     let mut count = vec![0u32; n];
-    // Each chunk's rows, and the masks of the neighbourhoods it found on its blocks' points
-    // (`Grid::fold_block_hits`), which pass 2 reads instead of testing the distances again.
-    type Row1 = (u32, [f32; 3], f32, f32, u32);
-    let pass1: Vec<(Vec<Row1>, Vec<u64>)> = blocks
+    let pass1: Vec<(u32, [f32; 3], f32, f32, u32)> = blocks
         .par_chunks(chunk)
-        .map(|blocks| {
+        .flat_map_iter(|blocks| {
             let mut rows = Vec::new();
-            let mut masks = Vec::new();
-            let mut near = Near::default();
             for block in blocks {
-                if crowd.is_none() {
-                    grid.gather_block(block, &mut near);
-                }
                 for &i in grid.slot_ids(block.slots.clone()) {
                     let q = positions[i as usize];
                     let r = f64::from(scale.radius[i as usize]);
                     let var = var_of(i as usize);
-                    let m = match &crowd {
-                        None if grid.block_holds(r) => grid.fold_block_hits(
-                            &near,
-                            q,
-                            r,
-                            &mut masks,
-                            [0.0f64; 10],
-                            |mut m, _, d| {
-                                add_moments(&mut m, d);
-                                m
-                            },
-                        ),
-                        None => grid.fold_in_block_weighted(
-                            block,
-                            q,
-                            r,
-                            [0.0f64; 10],
-                            |mut m, _, d, w| {
-                                add_moments_weighted(&mut m, d, w);
-                                m
-                            },
-                        ),
-                        Some(c) => {
-                            let mut m = [0.0f64; 10];
-                            c.grid.for_each_within(q, r, |k, d, _| {
-                                add_moments_weighted(&mut m, d, c.weight[k as usize])
-                            });
-                            m
-                        }
-                    };
+                    let mut m = [0.0f64; 10];
+                    match &crowd {
+                        None => grid.for_each_in_block_weighted(block, q, r, |_, d, w| {
+                            add_moments_weighted(&mut m, d, w)
+                        }),
+                        Some(c) => c.grid.for_each_within(q, r, |k, d, _| {
+                            add_moments_weighted(&mut m, d, c.weight[k as usize])
+                        }),
+                    }
                     rows.push(match pca_from_moments(&m) {
                         Some(p) => {
                             let sum = p.eigenvalues.iter().sum::<f64>();
@@ -223,11 +194,10 @@ pub fn features(
                 }
             }
             progress.inc(rows.len() as u64 / 2);
-            (rows, masks)
+            rows.into_iter()
         })
         .collect();
-    let (pass1, masks): (Vec<Vec<Row1>>, Vec<Vec<u64>>) = pass1.into_iter().unzip();
-    for (i, nrm, s, v, c) in pass1.into_iter().flatten() {
+    for (i, nrm, s, v, c) in pass1 {
         let i = i as usize;
         (normal[i], sharpness[i], variation[i], count[i]) = (nrm, s, v, c);
     }
@@ -253,24 +223,13 @@ pub fn features(
     };
     let pass2: Vec<(u32, f32, [f32; 3], f32)> = blocks
         .par_chunks(chunk)
-        .zip(&masks)
-        .flat_map_iter(|(blocks, masks)| {
+        .flat_map_iter(|blocks| {
             let mut rows = Vec::new();
-            let mut near = Near::default();
-            let mut at = 0;
             for block in blocks {
-                if crowd.is_none() {
-                    grid.gather_block(block, &mut near);
-                }
                 for &i in grid.slot_ids(block.slots.clone()) {
                     let r = f64::from(scale.radius[i as usize]);
                     let q = positions[i as usize];
-                    // Pass 1 kept this neighbourhood's mask exactly when the block holds it.
-                    let mask = (crowd.is_none() && grid.block_holds(r)).then(|| {
-                        at += near.words();
-                        (&near, &masks[at - near.words()..at])
-                    });
-                    let (t, d) = normal_tensor(grid, crowd.as_ref(), block, mask, normals, q, r);
+                    let (t, d) = normal_tensor(grid, crowd.as_ref(), block, normals, q, r);
                     rows.push((i, t[1] as f32, d.map(|c| c as f32), t[0] as f32));
                 }
             }
@@ -320,13 +279,12 @@ fn normal_tensor(
     grid: &Grid,
     crowd: Option<&Crowd>,
     block: &Block,
-    mask: Option<(&Near, &[u64])>,
     normal: &[[f32; 3]],
     q: [f64; 3],
     r: f64,
 ) -> ([f64; 3], [f64; 3]) {
     // Weight 1 leaves every product as it was (x * 1.0 == x): the same sums, bit for bit.
-    // The sums go by value through the folds, which keeps them in registers.
+    // The sums go by value through the fold, which keeps them in registers.
     let add = |(mut t, mut c): ([f64; 6], f64), n: [f32; 3], w: f64| {
         let m = n.map(f64::from);
         t[0] += w * m[0] * m[0];
@@ -339,12 +297,11 @@ fn normal_tensor(
         (t, c)
     };
     let zero = ([0.0f64; 6], 0.0f64);
-    let (t, c) = match (crowd, mask) {
-        (None, Some((near, mask))) => near.fold_mask(mask, zero, |acc, s| add(acc, normal[s], 1.0)),
-        (None, None) => {
+    let (t, c) = match crowd {
+        None => {
             grid.fold_in_block_weighted(block, q, r, zero, |acc, s, _, w| add(acc, normal[s], w))
         }
-        (Some(crowd), _) => {
+        Some(crowd) => {
             let mut acc = zero;
             crowd.grid.for_each_within(q, r, |k, _, _| {
                 acc = add(
