@@ -429,18 +429,7 @@ impl Grid {
         r: f64,
         mut f: impl FnMut(usize, [f64; 3], f64),
     ) {
-        let ql = self.local_of(q);
-        if r > self.cell * (1.0 + 1e-12) {
-            return self.for_each_within_slots(ql, r, &mut |s, d, _| f(s, d, 1.0));
-        }
-        let r2 = r * r;
-        for &(a, b) in &block.rows[..block.nrows as usize] {
-            for (s, p) in self.local[a as usize..b as usize].iter().enumerate() {
-                let d = [p[0] - ql[0], p[1] - ql[1], p[2] - ql[2]];
-                let d2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-                f(a as usize + s, d, f64::from(u8::from(d2 <= r2)));
-            }
-        }
+        self.fold_in_block_weighted(block, q, r, (), |(), s, d, w| f(s, d, w));
     }
 
     /// [`Self::for_each_in_block_weighted`] as a fold: `f(acc, slot, offset, weight)` returns
@@ -448,7 +437,7 @@ impl Grid {
     /// stays in registers, where sums kept behind a closure's `&mut` were stored and reloaded
     /// at every point.
     #[inline]
-    pub fn fold_in_block_weighted<A>(
+    pub fn fold_in_block_weighted<A: Copy>(
         &self,
         block: &Block,
         q: [f64; 3],
@@ -457,15 +446,12 @@ impl Grid {
         mut f: impl FnMut(A, usize, [f64; 3], f64) -> A,
     ) -> A {
         let ql = self.local_of(q);
+        let mut acc = init;
         if r > self.cell * (1.0 + 1e-12) {
-            let mut acc = Some(init);
-            self.for_each_within_slots(ql, r, &mut |s, d, _| {
-                acc = acc.take().map(|a| f(a, s, d, 1.0));
-            });
-            return acc.expect("the accumulator is always put back");
+            self.for_each_within_slots(ql, r, &mut |s, d, _| acc = f(acc, s, d, 1.0));
+            return acc;
         }
         let r2 = r * r;
-        let mut acc = init;
         for &(a, b) in &block.rows[..block.nrows as usize] {
             for (s, p) in self.local[a as usize..b as usize].iter().enumerate() {
                 let d = [p[0] - ql[0], p[1] - ql[1], p[2] - ql[2]];

@@ -978,9 +978,14 @@ mod tests {
 
     /// The axis (0, 1, 2) along which a plane's normal points most.
     fn axis_of(p: &Plane) -> usize {
-        (0..3)
-            .max_by(|&a, &b| p.normal[a].abs().total_cmp(&p.normal[b].abs()))
-            .unwrap()
+        // The last of equal maxima, as `max_by` gives.
+        (1..3).fold(0, |best, a| {
+            if p.normal[a].abs() >= p.normal[best].abs() {
+                a
+            } else {
+                best
+            }
+        })
     }
 
     #[test]
