@@ -134,7 +134,7 @@ impl Staging {
 
     /// Makes the staged files the output folder's files and returns their paths
     /// (`out/<name>`). Every file must have been written.
-    pub fn publish(mut self) -> Result<Vec<PathBuf>> {
+    pub fn publish(self) -> Result<Vec<PathBuf>> {
         for i in 0..self.names.len() {
             let f = self.file(i);
             if !f.is_file() {
@@ -146,11 +146,24 @@ impl Staging {
             }
         }
         let placed = self.swap_in()?;
-        if let Some(d) = self.dir.take() {
+        self.finish();
+        Ok(placed)
+    }
+
+    /// After the swap: keeps the run folder, releases its lock, then removes stale folders.
+    /// The lock goes before the clean-up: of two runs publishing at once, the one that
+    /// swapped in first may still hold its lock while the other cleans, and its folder,
+    /// replaced, stayed as litter (CI, stop 29). Whichever releases last sees the other's
+    /// folder unlocked, and its own if it was replaced.
+    fn finish(self) {
+        let Staging {
+            out, dir, _lock, ..
+        } = self;
+        if let Some(d) = dir {
             let _ = d.keep();
         }
-        clean_stale(&self.out);
-        Ok(placed)
+        drop(_lock);
+        clean_stale(&out);
     }
 
     #[cfg(unix)]
@@ -425,6 +438,30 @@ mod tests {
         assert_eq!(
             std::fs::read_to_string(d.path().join("a.txt")).unwrap(),
             "new"
+        );
+    }
+
+    #[test]
+    fn two_runs_publishing_at_once_leave_one_run_folder() {
+        // Regression (CI of stop 29, `two_runs_into_one_folder_leave_one_complete_set`):
+        // run a swaps in, run b swaps in and cleans while a still holds its lock, then a
+        // ends. a's replaced folder was left behind.
+        let d = tempfile::tempdir().unwrap();
+        let staged = |text: &str| {
+            let s = stage(d.path(), &["a.txt"]).unwrap();
+            std::fs::write(s.file(0), text).unwrap();
+            s
+        };
+        let a = staged("a");
+        let b = staged("b");
+        a.swap_in().unwrap();
+        b.publish().unwrap();
+        assert_eq!(runs(d.path()).len(), 2, "a still holds its lock");
+        a.finish();
+        assert_eq!(runs(d.path()).len(), 1, "{:?}", names(d.path()));
+        assert_eq!(
+            std::fs::read_to_string(d.path().join("a.txt")).unwrap(),
+            "b"
         );
     }
 
