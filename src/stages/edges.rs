@@ -119,6 +119,9 @@ pub struct SlabFit {
     pub abnormal: Vec<u32>,
     /// Largest distance of an abnormal point from the corner (the zone's half-width).
     pub abnormal_reach: f64,
+    /// How far each side's points reach from the corner along their face (the 0.9 quantile
+    /// of their distances along the face trace): the width of face the fit saw on each side.
+    pub reach: [f64; 2],
     /// Points in the slab's profile.
     pub points: usize,
 }
@@ -1268,6 +1271,7 @@ fn slab_pass(
                     ],
                     abnormal,
                     abnormal_reach,
+                    reach: side_reach(&profile, out),
                     points: profile.len(),
                 });
             }
@@ -1407,6 +1411,24 @@ fn abnormal_points(
     (abnormal, abnormal_reach)
 }
 
+/// How far each side's points of a fit reach from the PSO corner along their face trace:
+/// the 0.9 quantile of their distances along it (0 for a side without points).
+fn side_reach(profile: &[[f64; 2]], fit: &ProfileFit) -> [f64; 2] {
+    let c = fit.searches.pso.point;
+    [0, 1].map(|j| {
+        let d = fit.local[j].direction;
+        let mut along: Vec<f64> = fit.sides[j]
+            .iter()
+            .map(|&i| (profile[i][0] - c[0]) * d[0] + (profile[i][1] - c[1]) * d[1])
+            .collect();
+        if along.is_empty() {
+            return 0.0;
+        }
+        let q = ((0.9 * along.len() as f64) as usize).min(along.len() - 1);
+        *along.select_nth_unstable_by(q, f64::total_cmp).1
+    })
+}
+
 /// Appends (distance along the face from the exact corner, signed distance to the face's
 /// local line towards the other face) for every side and corner-region point of a fit.
 fn collect_residuals(profile: &[[f64; 2]], fit: &ProfileFit, out: &mut Vec<(f64, f64, bool)>) {
@@ -1495,6 +1517,33 @@ mod tests {
         let line: Vec<[f64; 2]> = (0..10).map(|i| [i as f64, 2.0 * i as f64]).collect();
         assert!(circle_fit(&line).is_none_or(|(r, _)| r > 1e6));
         assert!(circle_fit(&arc[..3]).is_none());
+    }
+
+    #[test]
+    fn side_reach_is_the_far_quantile_along_each_face_from_the_corner() {
+        // Corner at (1, 1); side 0 runs along +x (points 1..=20 beyond the corner), side 1
+        // along +y with 4 points within 0.8 of it: a scan border's profile.
+        let mut profile: Vec<[f64; 2]> = (1..=20).map(|i| [1.0 + i as f64, 1.0]).collect();
+        profile.extend([0.2, 0.4, 0.6, 0.8].map(|d| [1.0, 1.0 + d]));
+        let mut fit = ProfileFit {
+            sides: [(0..20).collect(), (20..24).collect()],
+            ..ProfileFit::default()
+        };
+        fit.searches.pso.point = [1.0, 1.0];
+        fit.local[0].direction = [1.0, 0.0];
+        fit.local[1].direction = [0.0, 1.0];
+        let r = side_reach(&profile, &fit);
+        // The 0.9 quantile: the 19th of 20 (index 18), the 4th of 4 (index 3).
+        assert!(
+            (r[0] - 19.0).abs() < 1e-12 && (r[1] - 0.8).abs() < 1e-12,
+            "{r:?}"
+        );
+        // A side whose points lie behind the corner reaches a negative distance; an empty
+        // side reaches 0.
+        fit.local[1].direction = [0.0, -1.0];
+        assert!(side_reach(&profile, &fit)[1] < 0.0);
+        fit.sides[1].clear();
+        assert_eq!(side_reach(&profile, &fit)[1], 0.0);
     }
 
     #[test]
