@@ -49,7 +49,7 @@ const GRACE: Duration = Duration::from_secs(60);
 pub struct Staging {
     out: PathBuf,
     names: Vec<String>,
-    dir: Option<tempfile::TempDir>,
+    dir: tempfile::TempDir,
     /// Held until published; closing it releases the lock.
     _lock: File,
 }
@@ -101,7 +101,7 @@ pub fn stage(out: &Path, names: &[&str]) -> Result<Staging> {
     Ok(Staging {
         out: out.to_path_buf(),
         names: names.iter().map(|s| s.to_string()).collect(),
-        dir: Some(dir),
+        dir,
         _lock: lock,
     })
 }
@@ -126,10 +126,7 @@ impl Staging {
 
     /// The run folder being written.
     pub fn run_dir(&self) -> &Path {
-        match &self.dir {
-            Some(d) => d.path(),
-            None => Path::new(""),
-        }
+        self.dir.path()
     }
 
     /// Makes the staged files the output folder's files and returns their paths
@@ -159,9 +156,7 @@ impl Staging {
         let Staging {
             out, dir, _lock, ..
         } = self;
-        if let Some(d) = dir {
-            let _ = d.keep();
-        }
+        let _ = dir.keep();
         drop(_lock);
         clean_stale(&out);
     }

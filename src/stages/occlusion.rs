@@ -27,6 +27,7 @@ use crate::cloud::ScanStructure;
 use crate::geometry::{add, cross, dot, norm, sub};
 use crate::stages::edges::EdgeFit;
 use crate::stages::faces::Plane;
+use crate::stages::scale::quantile;
 
 /// Beyond this angle between a surface's normal and the sensor's ray the surface counts as
 /// seen edge-on (degrees). Structured light and time of flight sample a face at 80° with
@@ -328,9 +329,8 @@ fn one_sided(fit: &EdgeFit) -> Option<String> {
     if short.is_empty() || fit.scale.spacing.is_nan() || fit.scale.spacing <= 0.0 {
         return None;
     }
-    let mid = short.len() / 2;
-    let short = *short.select_nth_unstable_by(mid, f64::total_cmp).1 / fit.scale.spacing;
-    let long = *long.select_nth_unstable_by(mid, f64::total_cmp).1 / fit.scale.spacing;
+    let short = quantile(&mut short, 0.5) / fit.scale.spacing;
+    let long = quantile(&mut long, 0.5) / fit.scale.spacing;
     tracing::trace!(
         "edge {}: its sides reach {short:.2} and {long:.2} spacings (medians of {} slabs)",
         fit.run,

@@ -472,7 +472,7 @@ fn sector_distances(in_plane: &[(f64, f64)], start: f64) -> Option<[f64; 2]> {
 }
 
 /// The `q`-quantile (nearest rank) of `v`; NaN when empty.
-fn quantile(v: &mut [f64], q: f64) -> f64 {
+pub(crate) fn quantile(v: &mut [f64], q: f64) -> f64 {
     quantile_by(v, q, f64::total_cmp).unwrap_or(f64::NAN)
 }
 
