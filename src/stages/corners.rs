@@ -223,10 +223,23 @@ fn fit_vertex(
                     left_out: None,
                 };
             }
-            Some((k, d)) => format!(
-                "corner {v}: the fitted corner lies {d:.1} spacings off edge {k}'s end line \
+            Some((k, d)) => {
+                let p = f.searches.pso.point;
+                tracing::debug!(
+                    "corner {v} at ({:.4}, {:.4}, {:.4}), vertex ({:.4}, {:.4}, {:.4}), edges {ids:?}: \
+                     {d:.1} spacings off edge {k}'s end line",
+                    p[0],
+                    p[1],
+                    p[2],
+                    approx[0],
+                    approx[1],
+                    approx[2]
+                );
+                format!(
+                    "corner {v}: the fitted corner lies {d:.1} spacings off edge {k}'s end line \
                  (more than {CORNER_ON_LINES}): its edges do not meet at one point"
-            ),
+                )
+            }
         },
         Err(e) => format!("corner {v}: {e}"),
     };

@@ -145,6 +145,10 @@ pub struct EdgeFit {
     /// Half-width of the abnormal zone measured from the pooled residuals (distance from the
     /// corner along the faces where the scan leaves them); 0 when none was measured.
     pub zone: f64,
+    /// The widest zone a rounding could have without showing in those residuals (see
+    /// [`hidden_zone`]): where the noise hides the rounding, its points are told from the
+    /// faces' by this, not by `zone` (which is then 0).
+    pub hidden: f64,
     /// Whether the edge had points enough to measure its zone at all (a few slabs' worth do
     /// not): without it nothing tells its abnormal points from its faces', and none moves.
     pub zone_known: bool,
@@ -356,6 +360,8 @@ struct Zone {
     raw: f64,
     /// Whether any pass had enough points to measure it.
     known: bool,
+    /// The widest zone the last measurement could have missed (see [`hidden_zone`]).
+    hidden: f64,
 }
 
 /// Fits one run: slab passes until the abnormal zone settles, then decides whether what was
@@ -395,9 +401,9 @@ fn fit_run(
     };
     // Pass 1 along the run's centre line: where the sharp edge is, roughly, and how wide its
     // abnormal zone is.
-    let first = slab_pass(&ctx, &run_line, 0.0, None, band, rng, scratch, out)?;
+    let first = slab_pass(&ctx, &run_line, 0.0, 0.0, None, band, rng, scratch, out)?;
     let (pass, zone) = settle_zone(&ctx, first, band, rng, scratch, out);
-    let mut pass = mean_face_pass(&ctx, pass, zone.used, band, rng, scratch, out);
+    let mut pass = mean_face_pass(&ctx, pass, zone, band, rng, scratch, out);
     keep_edge_slabs(&mut pass, k, scale, params)?;
     judge_edge(pass, run.closed, k, zone, scale, params)
 }
@@ -481,10 +487,12 @@ fn settle_zone(
             &pass.residuals,
             scale,
             2.0 * band.max(2.0 * zone.used + 2.0 * r),
+            median_angle(&pass.slabs),
             format_args!("edge {} after a pass with zone {:.4}", ctx.k, zone.used),
         );
         zone.known |= measured.is_some();
-        let raw = measured.unwrap_or(0.0);
+        let (raw, hidden) = measured.unwrap_or((0.0, 0.0));
+        zone.hidden = hidden;
         // Fitting keeps half a bin more out: a side point must be clearly on its face.
         let next = if raw > 0.0 {
             raw + 0.25 * scale.pitch
@@ -499,7 +507,7 @@ fn settle_zone(
             break;
         };
         let wide = band.max(2.0 * next + 2.0 * r);
-        match slab_pass(ctx, &centre, next, None, wide, rng, scratch, out) {
+        match slab_pass(ctx, &centre, next, hidden, None, wide, rng, scratch, out) {
             Ok(p) if p.slabs.len() >= 2 => {
                 pass = p;
                 zone.used = next;
@@ -519,7 +527,7 @@ fn settle_zone(
 fn mean_face_pass(
     ctx: &RunCtx,
     pass: Pass,
-    zone_used: f64,
+    zone: Zone,
     band: f64,
     rng: &mut SmallRng,
     scratch: &mut ProfileScratch,
@@ -530,11 +538,12 @@ fn mean_face_pass(
         && let Some(faces) = mean_faces(&pass.slabs)
         && let Some(centre) = next_centre(ctx, &pass.slabs, line, true)
     {
-        let wide = band.max(2.0 * zone_used + 2.0 * ctx.scale.radius);
+        let wide = band.max(2.0 * zone.used + 2.0 * ctx.scale.radius);
         if let Ok(p) = slab_pass(
             ctx,
             &centre,
-            zone_used,
+            zone.used,
+            zone.hidden,
             Some(faces),
             wide,
             rng,
@@ -649,9 +658,7 @@ fn judge_edge(
         ));
     }
     let (line, rms, scatter, straight) = edge_line(&pass.slabs, scale, params);
-    let mut angles: Vec<f64> = pass.slabs.iter().map(slab_angle).collect();
-    let mid = angles.len() / 2;
-    let dihedral_deg = *angles.select_nth_unstable_by(mid, f64::total_cmp).1;
+    let dihedral_deg = median_angle(&pass.slabs);
     tracing::debug!(
         "edge {k}: {} slabs ({} failed), abnormal zone {:.2} spacings{}, rms {:.3} spacings, \
          scatter {:.3} spacings, dihedral {dihedral_deg:.1}°, {}",
@@ -718,6 +725,7 @@ fn judge_edge(
     Ok(EdgeFit {
         run: k,
         zone: zone.raw,
+        hidden: zone.hidden,
         zone_known: zone.known,
         straight,
         closed,
@@ -859,6 +867,16 @@ fn smooth_bend(profile: &[[f64; 2]], fit: &ProfileFit) -> Option<f64> {
 /// the faces do not turn.
 fn slab_angle(s: &SlabFit) -> f64 {
     traces_angle(&s.faces)
+}
+
+/// The median interior angle of slab fits, in degrees (90 for none).
+fn median_angle(slabs: &[SlabFit]) -> f64 {
+    let mut angles: Vec<f64> = slabs.iter().map(slab_angle).collect();
+    if angles.is_empty() {
+        return 90.0;
+    }
+    let mid = angles.len() / 2;
+    *angles.select_nth_unstable_by(mid, f64::total_cmp).1
 }
 
 /// Angle between two unit face traces leaving an edge, in degrees: its interior angle.
@@ -1064,13 +1082,16 @@ const ZONE_MIN_PITCH: f64 = 0.01;
 /// a scan in lines resolves the profile along its lines, wherever they cross the edge)
 /// whose mean residual towards the other face stands clearly above the faces' own level. Faces are
 /// straight in the profile; a fillet or a lip bends towards the inside of the angle. 0 when no
-/// stretch deviates (a sharp edge); `None` when too few points to tell.
+/// stretch deviates (a sharp edge); `None` when too few points to tell. Beside it, the widest
+/// zone of a rounding between faces at `dihedral_deg` that these bins could not have shown
+/// (see [`hidden_zone`]).
 fn abnormal_zone(
     res: &[(f64, f64, bool)],
     scale: &Scale,
     band: f64,
+    dihedral_deg: f64,
     what: std::fmt::Arguments,
-) -> Option<f64> {
+) -> Option<(f64, f64)> {
     // The band's reach along the faces: a high percentile of the side points' distances (a
     // corner-region point of a failed side can sit anywhere).
     let mut s_side: Vec<f64> = res
@@ -1122,6 +1143,12 @@ fn abnormal_zone(
     // The zone is contiguous from the corner: its outer end is where the deviation stops
     // (the first quiet bin ends it), not the last bin that happens to deviate: a slight bend
     // of a face a few spacings out (0.05 h, seen on an L-block) is not the edge's rounding.
+    // The smallest mean deviation a bin of n points shows.
+    let detectable = |n: usize| {
+        (3.0 * sigma / (n as f64).sqrt())
+            .max(ZONE_FLOOR * sigma)
+            .max(ZONE_MIN_PITCH * scale.pitch)
+    };
     let mut zone = 0.0;
     let mut quiet = 0;
     for b in 0..nbin {
@@ -1136,8 +1163,7 @@ fn abnormal_zone(
             continue;
         }
         let mean = sum[b] / cnt[b] as f64 - level((b as f64 + 0.5) * w);
-        let se = sigma / (cnt[b] as f64).sqrt();
-        if mean > 3.0 * se && mean > ZONE_FLOOR * sigma && mean > ZONE_MIN_PITCH * scale.pitch {
+        if mean > detectable(cnt[b]) {
             zone = (b as f64 + 1.0) * w;
             quiet = 0;
         } else if zone > 0.0 {
@@ -1147,8 +1173,13 @@ fn abnormal_zone(
             }
         }
     }
+    let limits: Vec<f64> = cnt
+        .iter()
+        .map(|&n| if n < 5 { f64::INFINITY } else { detectable(n) })
+        .collect();
+    let hidden = hidden_zone(&limits, w, dihedral_deg, HIDDEN_MAX * scale.pitch);
     tracing::trace!(
-        "{what}: abnormal zone {zone:.4} (bin {w:.4}, sigma {sigma:.5}, level {:.5} + {slope:.5} s): {}",
+        "{what}: abnormal zone {zone:.4}, hidden up to {hidden:.4} (bin {w:.4}, sigma {sigma:.5}, level {:.5} + {slope:.5} s): {}",
         level(0.0),
         (0..nbin.min(120))
             .map(|b| format!(
@@ -1164,7 +1195,69 @@ fn abnormal_zone(
             .collect::<Vec<_>>()
             .join(" ")
     );
-    Some(zone.min(0.5 * band))
+    Some((zone.min(0.5 * band), hidden.min(0.5 * band)))
+}
+
+/// The widest hidden zone, in pitches: beyond a rounding's own zone the points moved are face
+/// points, and where the noise hides a rounding wider than this, a user gets more from their
+/// scan as read than from faces flattened far out.
+const HIDDEN_MAX: f64 = 1.5;
+
+/// The widest zone (tangent length t, along the faces from the sharp edge) of a circular
+/// rounding between faces at the interior angle `dihedral_deg` whose mean deviation from the
+/// faces stays below `limits[b]` in every bin `b` (bins `w` wide from the edge; an infinite
+/// limit for a bin too sparse to judge), at most `cap`.
+///
+/// Where the noise is as large as the rounding, `abnormal_zone` measures none, yet the
+/// rounding's points lie up to t from the edge, off the sharp faces by the rounding and the
+/// noise; leaving them as read keeps both (issue 17: `bench --random` cases at σ ≈ R ≈ 0.25 h
+/// kept 0.55–0.65 of their raw distance). A rounding of radius R = t tan(β/2) leaves face 1
+/// at x = t − R sin φ by δ = R (1 − cos φ), φ from 0 at the tangent point to (π − β)/2 on the
+/// bisector; points nearer the edge than the bisector are the other face's. δ grows with t
+/// at every x, so the widest hidden t is found by bisection.
+pub(crate) fn hidden_zone(limits: &[f64], w: f64, dihedral_deg: f64, cap: f64) -> f64 {
+    let half = (0.5 * dihedral_deg.to_radians()).clamp(0.05, 1.52);
+    let cap = cap.min(limits.len() as f64 * w);
+    if !(cap > 0.0 && w > 0.0) {
+        return 0.0;
+    }
+    // The rounding's deviation from face 1 at x along it, for tangent length t.
+    let deviation = |t: f64, x: f64| {
+        let r = t * half.tan();
+        let u = ((t - x) / r).clamp(0.0, half.cos());
+        r * (1.0 - (1.0 - u * u).sqrt())
+    };
+    let shows = |t: f64| {
+        limits.iter().enumerate().any(|(b, &limit)| {
+            // The rounding covers [a, e) of the bin; it is 0 beyond t.
+            const SAMPLES: usize = 16;
+            let a = b as f64 * w;
+            let e = (a + w).min(t);
+            if e <= a {
+                return false;
+            }
+            let mean = (0..SAMPLES)
+                .map(|i| deviation(t, a + (e - a) * (i as f64 + 0.5) / SAMPLES as f64))
+                .sum::<f64>()
+                / SAMPLES as f64
+                * (e - a)
+                / w;
+            mean > limit
+        })
+    };
+    if !shows(cap) {
+        return cap;
+    }
+    let (mut lo, mut hi) = (0.0, cap);
+    for _ in 0..40 {
+        let mid = 0.5 * (lo + hi);
+        if shows(mid) {
+            hi = mid;
+        } else {
+            lo = mid;
+        }
+    }
+    lo
 }
 
 /// One pass of slab fits along `centre`, with the abnormal zone `zone` (0: the propagation
@@ -1175,6 +1268,7 @@ fn slab_pass(
     ctx: &RunCtx,
     centre: &Polyline,
     zone: f64,
+    hidden: f64,
     faces: Option<[[f64; 3]; 2]>,
     band: f64,
     rng: &mut SmallRng,
@@ -1255,7 +1349,7 @@ fn slab_pass(
                     f.map(|x| x / norm(f))
                 });
                 let (abnormal, abnormal_reach) =
-                    abnormal_points(&profile, &members, out, zone, scale);
+                    abnormal_points(&profile, &members, out, zone.max(hidden), scale);
                 collect_residuals(&profile, out, &mut pass.residuals);
                 pass.slabs.push(SlabFit {
                     t: tc,
@@ -1517,6 +1611,64 @@ mod tests {
         let line: Vec<[f64; 2]> = (0..10).map(|i| [i as f64, 2.0 * i as f64]).collect();
         assert!(circle_fit(&line).is_none_or(|(r, _)| r > 1e6));
         assert!(circle_fit(&arc[..3]).is_none());
+    }
+
+    /// Mean deviation from face 1, over bin `b` (`w` wide), of a circular rounding with
+    /// tangent length `t` between faces at `deg`: the circle built in the plane (face 1 on
+    /// the x axis, face 2 at `deg` from it), each sample's height the circle's below it, or
+    /// on the bisector's side the circle's height where it crosses the bisector.
+    fn fillet_bin_mean(t: f64, deg: f64, w: f64, b: usize) -> f64 {
+        let half = (0.5 * deg).to_radians();
+        let r = t * half.tan();
+        let (cx, cy) = (t, r);
+        let x_bis = cx - r * half.cos();
+        let n = 2000;
+        (0..n)
+            .map(|i| {
+                let x = (b as f64 + (i as f64 + 0.5) / n as f64) * w;
+                if x >= t {
+                    0.0
+                } else {
+                    let x = x.max(x_bis);
+                    cy - (r * r - (x - cx).powi(2)).sqrt()
+                }
+            })
+            .sum::<f64>()
+            / n as f64
+    }
+
+    #[test]
+    fn hidden_zone_is_the_widest_rounding_every_bin_misses() {
+        for deg in [30.0, 90.0, 135.0] {
+            for t0 in [0.3, 0.8, 1.7] {
+                // Limits just above what a rounding of tangent length t0 shows: t0 hides,
+                // 3 % more shows in some bin.
+                let limits: Vec<f64> = (0..12)
+                    .map(|b| fillet_bin_mean(t0, deg, 0.25, b).max(1e-12) * 1.0001)
+                    .collect();
+                let t = hidden_zone(&limits, 0.25, deg, 10.0);
+                assert!(
+                    (t - t0).abs() < 0.03 * t0,
+                    "{deg}°, t0 {t0}: hidden zone {t}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn hidden_zone_is_none_without_noise_and_the_cap_without_points() {
+        // Noise-free faces show any rounding: nothing hides.
+        let t = hidden_zone(&[1e-9; 8], 0.5, 90.0, 3.0);
+        assert!(t < 1e-3, "{t}");
+        // Bins too sparse to judge hide everything up to the cap, or the bins' reach.
+        assert_eq!(hidden_zone(&[f64::INFINITY; 8], 0.5, 90.0, 3.0), 3.0);
+        assert_eq!(hidden_zone(&[f64::INFINITY; 4], 0.5, 90.0, 3.0), 2.0);
+        assert_eq!(hidden_zone(&[], 0.5, 90.0, 3.0), 0.0);
+        // Noisier bins hide more, and an obtuse edge (whose rounding leaves its faces less)
+        // more than an acute one at the same noise.
+        let at = |limit: f64, deg: f64| hidden_zone(&[limit; 8], 0.5, deg, 100.0);
+        assert!(at(0.05, 90.0) < at(0.1, 90.0));
+        assert!(at(0.05, 60.0) < at(0.05, 90.0) && at(0.05, 90.0) < at(0.05, 150.0));
     }
 
     #[test]

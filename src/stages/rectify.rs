@@ -89,7 +89,7 @@ pub fn rectify(
         faces_of[k] = mean_faces(&e.slabs);
         // How far from the edge its scan leaves the faces: the measured zone and margin.
         let (scale, max_move, zone_margin) = (e.scale, max_move_of(e), zone_margin_of(e));
-        reach_of[k] = e.zone + zone_margin;
+        reach_of[k] = e.zone.max(e.hidden) + zone_margin;
         for s in &e.slabs {
             let faces = if e.straight {
                 faces_of[k].unwrap_or(s.faces)
@@ -107,7 +107,7 @@ pub fn rectify(
                 let faces = faces.map(|f| orthogonalise(f, d));
                 // Beyond the measured zone the scan is on its face already: leave it as read.
                 if zone_reach(along_face(p, c, d, &faces), p, c, d, scale.noise)
-                    > e.zone + zone_margin
+                    > e.zone.max(e.hidden) + zone_margin
                 {
                     continue;
                 }
