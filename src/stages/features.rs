@@ -116,6 +116,11 @@ pub struct Features {
     pub split_threshold: f32,
 }
 
+/// One point's plane fit (pass 1): id, normal, sharpness, surface variation, count.
+type PlaneRow = (u32, [f32; 3], f32, f32, u32);
+/// One point's normal tensor (pass 2): id, split, edge direction, corner.
+type TensorRow = (u32, f32, [f32; 3], f32);
+
 /// Cells per unit of parallel work: a few thousand points.
 const BLOCK_CHUNK: usize = 256;
 
@@ -163,7 +168,7 @@ pub fn features(
     // back and freed one by one: a flat collect held every row twice at its peak (rayon's
     // list of pieces and the vector they are appended to: 56 B a point here, 48 in pass 2).
     let slots_of = |blocks: &[Block]| blocks.iter().map(|b| b.slots.len()).sum::<usize>();
-    let pass1: Vec<Vec<(u32, [f32; 3], f32, f32, u32)>> = blocks
+    let pass1: Vec<Vec<PlaneRow>> = blocks
         .par_chunks(chunk)
         .map(|blocks| {
             let mut rows = Vec::with_capacity(slots_of(blocks));
@@ -227,7 +232,7 @@ pub fn features(
         }
         Some(_) => &normal,
     };
-    let pass2: Vec<Vec<(u32, f32, [f32; 3], f32)>> = blocks
+    let pass2: Vec<Vec<TensorRow>> = blocks
         .par_chunks(chunk)
         .map(|blocks| {
             let mut rows = Vec::with_capacity(slots_of(blocks));
