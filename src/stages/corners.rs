@@ -226,14 +226,8 @@ fn fit_vertex(
             Some((k, d)) => {
                 let p = f.searches.pso.point;
                 tracing::debug!(
-                    "corner {v} at ({:.4}, {:.4}, {:.4}), vertex ({:.4}, {:.4}, {:.4}), edges {ids:?}: \
-                     {d:.1} spacings off edge {k}'s end line",
-                    p[0],
-                    p[1],
-                    p[2],
-                    approx[0],
-                    approx[1],
-                    approx[2]
+                    "corner {v} at {p:.4?}, vertex {approx:.4?}, edges {ids:?}: {d:.1} spacings \
+                     off edge {k}'s end line"
                 );
                 format!(
                     "corner {v}: the fitted corner lies {d:.1} spacings off edge {k}'s end line \

@@ -106,9 +106,7 @@ pub fn rectify(
                 let (c, d) = g.nearest(p);
                 let faces = faces.map(|f| orthogonalise(f, d));
                 // Beyond the measured zone the scan is on its face already: leave it as read.
-                if zone_reach(along_face(p, c, d, &faces), p, c, d, scale.noise)
-                    > e.zone.max(e.hidden) + zone_margin
-                {
+                if zone_reach(along_face(p, c, d, &faces), p, c, d, scale.noise) > reach_of[k] {
                     continue;
                 }
                 let q = onto_traces(p, c, d, &faces);
