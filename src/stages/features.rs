@@ -130,6 +130,34 @@ const BLOCK_CHUNK: usize = 256;
 const CROWD_FACTOR: usize = 64;
 const CROWD_FLOOR: usize = 1024;
 
+/// `row(block, id)` for every point of `blocks`, in parallel over chunks of `BLOCK_CHUNK`
+/// blocks. Each chunk's rows come back in a vector of their own, sized exactly, for the caller
+/// to write back by id and free one by one: a flat collect held every row twice at its peak
+/// (rayon's list of pieces and the vector they are appended to; 56 B a point in pass 1).
+/// `done(n)` hears of each chunk's n points.
+fn rows_by_chunk<T: Send>(
+    grid: &Grid,
+    blocks: &[Block],
+    row: impl Fn(&Block, u32) -> T + Sync,
+    done: impl Fn(u64) + Sync,
+) -> Vec<Vec<T>> {
+    blocks
+        .par_chunks(BLOCK_CHUNK)
+        .map(|chunk| {
+            let mut rows = Vec::with_capacity(chunk.iter().map(|b| b.slots.len()).sum());
+            for block in chunk {
+                rows.extend(
+                    grid.slot_ids(block.slots.clone())
+                        .iter()
+                        .map(|&i| row(block, i)),
+                );
+            }
+            done(rows.len() as u64);
+            rows
+        })
+        .collect()
+}
+
 /// Computes the per-point features, each point with its own radius and noise from `scale`.
 /// Any grid works; cells about as wide as most radii are fastest.
 pub fn features(
@@ -149,7 +177,6 @@ pub fn features(
     // Work cell by cell, in the grid's spatial order (cache locality, and the 27 cells around
     // a cell found once for all its points); write back by id.
     let blocks = grid.blocks();
-    let chunk = BLOCK_CHUNK;
     let crowd = grid.crowd(positions, CROWD_FACTOR, CROWD_FLOOR);
     if let Some(c) = &crowd {
         tracing::info!(
@@ -164,48 +191,39 @@ pub fn features(
     let mut sharpness = vec![0.0f32; n];
     let mut variation = vec![0.0f32; n];
     let mut count = vec![0u32; n];
-    // Each chunk of blocks returns its rows in a vector of its own, sized exactly, written
-    // back and freed one by one: a flat collect held every row twice at its peak (rayon's
-    // list of pieces and the vector they are appended to: 56 B a point here, 48 in pass 2).
-    let slots_of = |blocks: &[Block]| blocks.iter().map(|b| b.slots.len()).sum::<usize>();
-    let pass1: Vec<Vec<PlaneRow>> = blocks
-        .par_chunks(chunk)
-        .map(|blocks| {
-            let mut rows = Vec::with_capacity(slots_of(blocks));
-            for block in blocks {
-                for &i in grid.slot_ids(block.slots.clone()) {
-                    let q = positions[i as usize];
-                    let r = f64::from(scale.radius[i as usize]);
-                    let var = var_of(i as usize);
-                    let mut m = [0.0f64; 10];
-                    match &crowd {
-                        None => grid.for_each_in_block_weighted(block, q, r, |_, d, w| {
-                            add_moments_weighted(&mut m, d, w)
-                        }),
-                        Some(c) => c.grid.for_each_within(q, r, |k, d, _| {
-                            add_moments_weighted(&mut m, d, c.weight[k as usize])
-                        }),
-                    }
-                    rows.push(match pca_from_moments(&m) {
-                        Some(p) => {
-                            let sum = p.eigenvalues.iter().sum::<f64>();
-                            let v = if sum > 0.0 {
-                                p.eigenvalues[0] / sum
-                            } else {
-                                0.0
-                            };
-                            let nrm = p.normal.map(|c| c as f32);
-                            let c = m[0].round() as u32;
-                            (i, nrm, (p.eigenvalues[0] / var) as f32, v as f32, c)
-                        }
-                        None => (i, [0.0; 3], 0.0, 0.0, 1),
-                    });
-                }
+    let pass1: Vec<Vec<PlaneRow>> = rows_by_chunk(
+        grid,
+        &blocks,
+        |block, i| {
+            let q = positions[i as usize];
+            let r = f64::from(scale.radius[i as usize]);
+            let var = var_of(i as usize);
+            let mut m = [0.0f64; 10];
+            match &crowd {
+                None => grid.for_each_in_block_weighted(block, q, r, |_, d, w| {
+                    add_moments_weighted(&mut m, d, w)
+                }),
+                Some(c) => c.grid.for_each_within(q, r, |k, d, _| {
+                    add_moments_weighted(&mut m, d, c.weight[k as usize])
+                }),
             }
-            progress.inc(rows.len() as u64 / 2);
-            rows
-        })
-        .collect();
+            match pca_from_moments(&m) {
+                Some(p) => {
+                    let sum = p.eigenvalues.iter().sum::<f64>();
+                    let v = if sum > 0.0 {
+                        p.eigenvalues[0] / sum
+                    } else {
+                        0.0
+                    };
+                    let nrm = p.normal.map(|c| c as f32);
+                    let c = m[0].round() as u32;
+                    (i, nrm, (p.eigenvalues[0] / var) as f32, v as f32, c)
+                }
+                None => (i, [0.0; 3], 0.0, 0.0, 1),
+            }
+        },
+        |n| progress.inc(n / 2),
+    );
     for rows in pass1 {
         for (i, nrm, s, v, c) in rows {
             let i = i as usize;
@@ -232,22 +250,17 @@ pub fn features(
         }
         Some(_) => &normal,
     };
-    let pass2: Vec<Vec<TensorRow>> = blocks
-        .par_chunks(chunk)
-        .map(|blocks| {
-            let mut rows = Vec::with_capacity(slots_of(blocks));
-            for block in blocks {
-                for &i in grid.slot_ids(block.slots.clone()) {
-                    let r = f64::from(scale.radius[i as usize]);
-                    let q = positions[i as usize];
-                    let (t, d) = normal_tensor(grid, crowd.as_ref(), block, normals, q, r);
-                    rows.push((i, t[1] as f32, d.map(|c| c as f32), t[0] as f32));
-                }
-            }
-            progress.inc(rows.len() as u64 - rows.len() as u64 / 2);
-            rows
-        })
-        .collect();
+    let pass2: Vec<Vec<TensorRow>> = rows_by_chunk(
+        grid,
+        &blocks,
+        |block, i| {
+            let r = f64::from(scale.radius[i as usize]);
+            let q = positions[i as usize];
+            let (t, d) = normal_tensor(grid, crowd.as_ref(), block, normals, q, r);
+            (i, t[1] as f32, d.map(|c| c as f32), t[0] as f32)
+        },
+        |n| progress.inc(n - n / 2),
+    );
     for rows in pass2 {
         for (i, s, d, c) in rows {
             let i = i as usize;
