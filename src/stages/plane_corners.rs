@@ -348,12 +348,22 @@ fn unfollowed_edge(
             axpy(corner, CREASE_FROM * r, d),
             axpy(corner, CREASE_TO * r, d),
         );
-        let pair = [triple[ia], triple[ib]];
+        // Each face's trace leaves the edge in its plane, across `d`, on its own side of the
+        // other face's plane (against that face's turned normal): `side` has told already
+        // where each face's points lie.
+        let trace = |own: [f64; 3], other: [f64; 3]| {
+            let t = cross(d, own);
+            let t = t.map(|x| x / norm(t));
+            if dot(t, other) > 0.0 {
+                t.map(|x| -x)
+            } else {
+                t
+            }
+        };
         let rounded = || {
-            traces(positions, grid, faces, pair, d, start, FACE_NEAR * r).is_some_and(|tr| {
-                let pl = [&planes[ia], &planes[ib]];
-                rounded_crease(positions, grid, pl, &tr, start, end, scale, rounding).is_some()
-            })
+            let tr = [trace(na, nb), trace(nb, na)];
+            let pl = [&planes[ia], &planes[ib]];
+            rounded_crease(positions, grid, pl, &tr, start, end, scale, rounding).is_some()
         };
         !hugged || rounded()
     })
