@@ -21,6 +21,20 @@ fn bench(args: &[&str], dir: &Path) -> (bool, String, String) {
     )
 }
 
+/// Runs `sharpedge ARGS` in `dir` and asserts it succeeded.
+fn sharpedge_ok(args: &[&str], dir: &Path) {
+    let out = Command::new(env!("CARGO_BIN_EXE_sharpedge"))
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .expect("running sharpedge");
+    assert!(
+        out.status.success(),
+        "sharpedge {args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
 fn read_json(path: &Path) -> Value {
     serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
 }
@@ -507,16 +521,7 @@ fn three_random_parts_report_their_draws_a_summary_and_reproduce_alone() {
     // The first case alone, through `synth`: the same number of points.
     let cmd = cases[0]["reproduce"].as_str().unwrap();
     let args: Vec<&str> = cmd.split(' ').skip(1).collect();
-    let made = Command::new(env!("CARGO_BIN_EXE_sharpedge"))
-        .args(&args)
-        .current_dir(dir.path())
-        .output()
-        .unwrap();
-    assert!(
-        made.status.success(),
-        "{}",
-        String::from_utf8_lossy(&made.stderr)
-    );
+    sharpedge_ok(&args, dir.path());
     let truth = read_json(&dir.path().join("case.truth.json"));
     assert_eq!(truth["points"], cases[0]["points"]);
     assert_eq!(truth["part"], "random");
@@ -565,16 +570,7 @@ fn random_parts_are_scanned_in_drawn_patterns_and_reproduce_alone() {
     let cmd = c["reproduce"].as_str().unwrap();
     assert!(cmd.contains(&format!("--pattern {pattern}")), "{cmd}");
     let args: Vec<&str> = cmd.split(' ').skip(1).collect();
-    let made = Command::new(env!("CARGO_BIN_EXE_sharpedge"))
-        .args(&args)
-        .current_dir(dir.path())
-        .output()
-        .unwrap();
-    assert!(
-        made.status.success(),
-        "{}",
-        String::from_utf8_lossy(&made.stderr)
-    );
+    sharpedge_ok(&args, dir.path());
     let truth = read_json(&dir.path().join("case.truth.json"));
     assert_eq!(truth["points"], c["points"], "{cmd}");
     // ... and `run` on it with the default settings gives what the bench scored: the cloud
@@ -590,16 +586,7 @@ fn random_parts_are_scanned_in_drawn_patterns_and_reproduce_alone() {
         "[input]\npath = \"case.ply\"\n[output]\ndir = \"out\"\n",
     )
     .unwrap();
-    let ran = Command::new(env!("CARGO_BIN_EXE_sharpedge"))
-        .args(["run", "p.toml", "-q"])
-        .current_dir(dir.path())
-        .output()
-        .unwrap();
-    assert!(
-        ran.status.success(),
-        "{}",
-        String::from_utf8_lossy(&ran.stderr)
-    );
+    sharpedge_ok(&["run", "p.toml", "-q"], dir.path());
     let report = read_json(&dir.path().join("out/report.json"));
     assert_eq!(
         report["counts"]["moved"], c["rectify"]["moved_points"],

@@ -11,32 +11,13 @@
 //!   it, grown to 7.5 spacings by the next passes; 1,266 face points 4–6 h from the edges
 //!   moved. A zone now starts in the first two bins (`edges::ZONE_START`): 10 move.
 
-use std::process::Command;
+mod run_common;
 
-use serde_json::Value;
-
-fn bench_cases(cases: &str) -> Vec<Value> {
-    let dir = tempfile::tempdir().unwrap();
-    let out = Command::new(env!("CARGO_BIN_EXE_sharpedge"))
-        .args([
-            "bench", "--random", "100", "--seed", "2", "--cases", cases, "--out", "b.json", "-q",
-        ])
-        .current_dir(dir.path())
-        .output()
-        .expect("running sharpedge");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let j: Value =
-        serde_json::from_str(&std::fs::read_to_string(dir.path().join("b.json")).unwrap()).unwrap();
-    j["cases"].as_array().unwrap().clone()
-}
+use run_common::bench_random_cases;
 
 #[test]
 fn issue17_roundings_hidden_by_the_noise_are_rectified() {
-    let cases = bench_cases("r006,r030");
+    let cases = bench_random_cases(2, "r006,r030");
     let names: Vec<&str> = cases.iter().map(|c| c["name"].as_str().unwrap()).collect();
     assert_eq!(names, ["r006", "r030"]);
     for c in &cases {
@@ -63,7 +44,7 @@ fn issue17_roundings_hidden_by_the_noise_are_rectified() {
 
 #[test]
 fn issue17_a_zone_starts_at_its_edge() {
-    let cases = bench_cases("r071");
+    let cases = bench_random_cases(2, "r071");
     let c = &cases[0];
     assert_eq!(c["name"], "r071");
     assert_eq!(c["points"].as_u64(), Some(111_355), "the draw changed");

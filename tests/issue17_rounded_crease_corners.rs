@@ -12,32 +12,13 @@
 //! - r080 (31,104 points, one view with a density gradient): 4 corners found, 3 true; now
 //!   the 3.
 
-use std::process::Command;
+mod run_common;
 
-use serde_json::Value;
-
-fn bench_cases(cases: &str) -> Vec<Value> {
-    let dir = tempfile::tempdir().unwrap();
-    let out = Command::new(env!("CARGO_BIN_EXE_sharpedge"))
-        .args([
-            "bench", "--random", "100", "--seed", "1", "--cases", cases, "--out", "b.json", "-q",
-        ])
-        .current_dir(dir.path())
-        .output()
-        .expect("running sharpedge");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let j: Value =
-        serde_json::from_str(&std::fs::read_to_string(dir.path().join("b.json")).unwrap()).unwrap();
-    j["cases"].as_array().unwrap().clone()
-}
+use run_common::bench_random_cases;
 
 #[test]
 fn issue17_faces_beside_a_fillet_give_no_corner_and_no_edge() {
-    let cases = bench_cases("r003,r080");
+    let cases = bench_random_cases(1, "r003,r080");
     let names: Vec<&str> = cases.iter().map(|c| c["name"].as_str().unwrap()).collect();
     assert_eq!(names, ["r003", "r080"]);
     let (r003, r080) = (&cases[0], &cases[1]);

@@ -452,3 +452,20 @@ pub fn job() -> tempfile::TempDir {
     config(dir.path(), "[input]\npath = \"scan.ply\"\n");
     dir
 }
+
+/// The scored cases `cases` (names such as "r003,r080") of `sharpedge bench --random 100
+/// --seed SEED`, run in a temporary folder: the bench's JSON `cases` array.
+pub fn bench_random_cases(seed: u64, cases: &str) -> Vec<serde_json::Value> {
+    let dir = tempfile::tempdir().unwrap();
+    let seed = seed.to_string();
+    sharpedge(
+        dir.path(),
+        &[
+            "bench", "--random", "100", "--seed", &seed, "--cases", cases, "--out", "b.json", "-q",
+        ],
+    )
+    .assert_ok();
+    let text = std::fs::read_to_string(dir.path().join("b.json")).unwrap();
+    let j: serde_json::Value = serde_json::from_str(&text).unwrap();
+    j["cases"].as_array().unwrap().clone()
+}
