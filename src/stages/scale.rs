@@ -41,6 +41,8 @@
 //!   √(sigma·spacing) up to `noise_radius` spacings): the first two as the cloud-wide rule
 //!   was, the third keeping the
 //!   normals steady where the noise is a large share of the spacing (see [`NORMAL_RADIUS`]).
+//!   On scan lines `min_radius` shrinks with the lines' density along them, down to
+//!   [`LINE_MIN_RADIUS`] spacings ([`min_radius_on`]).
 //!   A radius or noise given in the config replaces the measured one everywhere.
 
 use rayon::prelude::*;
@@ -291,7 +293,7 @@ pub fn local_scale_in(
         let pitch = h / (anisotropy - (PITCH_ISOTROPIC - 1.0)).max(1.0);
         let sigma = params.noise.unwrap_or(var.sqrt());
         let radius = params.radius.unwrap_or_else(|| {
-            (params.min_radius * h)
+            (min_radius_on(params.min_radius, h / pitch) * h)
                 .max(params.noise_radius * sigma)
                 .max((params.normal_radius * (sigma * h).sqrt()).min(params.noise_radius * h))
         });
@@ -304,6 +306,31 @@ pub fn local_scale_in(
         }
     }
     Ok(out)
+}
+
+/// Smallest automatic radius in spacings on scan lines, however dense they are: 3 spacings
+/// are 2.3 of the lines' gaps (the spacing is the gap over [`SECTOR_RATIO`]), so a
+/// neighbourhood holds its own line and the next two on either side. With one `min_radius`
+/// for every case, the 26 line scans of `bench --random 100 --seed 1` missed 142 / 125 / 120
+/// corners at 4 / 3 / 2.5 spacings; a floor of 2.5 found a few more corners over seeds 1, 2,
+/// 3 (702 missed against 717) but overshot the ends of edges running along lines 9 h
+/// apart (seed 1's r075: edge precision 0.999 → 0.981, `tests/issue17_pair_edges.rs`).
+pub const LINE_MIN_RADIUS: f64 = 3.0;
+
+/// The smallest automatic radius, in spacings (across the pattern), where the pattern is
+/// `ratio` = spacing / pitch times denser along its lines than across them. A disc of r
+/// spacings holds ∝ ratio·r² points, so about `min_radius / √ratio` spacings hold as many as
+/// `min_radius` do on uniform sampling; it is floored at [`LINE_MIN_RADIUS`]. The ratio
+/// counts from 1 above isotropic (`ratio − 1`): grids and overlapping views read 1–2 and
+/// keep `min_radius` (with `ratio` itself, grid cases of `bench --random` lost edge recall:
+/// seed 1's r046 0.98 → 0.91). Why: scan lines g mean spacings apart are g² times denser
+/// along than across, and on lines 8 mean spacings apart 4 spacings across were 27 mean
+/// spacings, wider than a part's small faces, whose edges were then never segmented
+/// (`bench --random 100`, seed 1's r050: 20 of 40 corners missed, 10 now; over seeds 1, 2
+/// and 3, 769 missed corners, 717 now).
+pub fn min_radius_on(min_radius: f64, ratio: f64) -> f64 {
+    let scaled = min_radius / (ratio - 1.0).max(1.0).sqrt();
+    scaled.max(LINE_MIN_RADIUS.min(min_radius))
 }
 
 /// What one sampled neighbourhood says.
@@ -593,6 +620,37 @@ mod tests {
         let local = local_scale(&pts, s, &ScaleRules::default()).unwrap();
         let h = local.summary().spacing * SECTOR_RATIO;
         assert!((h - 1.0).abs() < 0.05, "{h}");
+        // Ten times denser along the lines: the radius is the floor of 3 spacings (2.3 of
+        // the lines' gaps), not 4.
+        let Scale {
+            spacing, radius, ..
+        } = local.summary();
+        assert!(
+            (radius - LINE_MIN_RADIUS * spacing).abs() < 1e-6 * radius,
+            "radius {radius}, spacing {spacing}"
+        );
+        assert!((radius - 2.26).abs() < 0.1, "radius {radius} gaps");
+    }
+
+    #[test]
+    fn min_radius_shrinks_with_the_density_along_scan_lines() {
+        // Uniform sampling, grids and overlapping views (ratio up to 2) keep min_radius.
+        for ratio in [0.5, 1.0, 1.5, 2.0] {
+            assert_eq!(min_radius_on(4.0, ratio), 4.0, "ratio {ratio}");
+        }
+        // As many points as on uniform sampling: 4 / sqrt(ratio - 1).
+        assert!((min_radius_on(4.0, 2.5) - 4.0 / 1.5f64.sqrt()).abs() < 1e-12);
+        // Floored at LINE_MIN_RADIUS, however dense the lines.
+        assert_eq!(min_radius_on(4.0, 100.0), LINE_MIN_RADIUS);
+        // A min_radius below the floor is the user's choice and stays.
+        assert_eq!(min_radius_on(2.0, 100.0), 2.0);
+        // Never larger than min_radius, and monotone in the ratio.
+        let mut last = f64::INFINITY;
+        for k in 0..200 {
+            let r = min_radius_on(6.0, 1.0 + 0.25 * f64::from(k));
+            assert!(r <= 6.0 && r <= last, "{r} after {last}");
+            last = r;
+        }
     }
 
     #[test]
