@@ -191,18 +191,32 @@ pub fn process(cloud: Cloud, settings: &Settings, clock: &mut impl LapClock) -> 
         scale.noise,
         scale.noise / scale.spacing,
         scale.radius,
-        local.radius.iter().copied().fold(f32::INFINITY, f32::min),
-        local.radius.iter().copied().fold(0.0, f32::max)
+        local.radius_range().0,
+        local.radius_range().1
     );
     clock.lap("scale");
     // Cells as wide as nine radii in ten: the rest take the wider query.
     let grid = Grid::new(positions, local.radius_quantile(0.9)).map_err(|e| in_file(&path, e))?;
     clock.lap("neighbours");
     let progress = Progress::start("features", positions.len() as u64, "points");
-    let features = features::features(positions, &grid, &local, &settings.features, &progress);
+    let mut features = features::features(positions, &grid, &local, &settings.features, &progress);
     drop(progress);
     clock.lap("features");
+    // Edge runs are grown at the scale of the candidates (the points near edges), not of the
+    // whole cloud.
+    let run_scale = local
+        .around((0..positions.len() as u32).filter(|&i| features.candidate[i as usize]))
+        .unwrap_or(scale);
+    let mut segments = segment::segment(positions, &features, &run_scale, &settings.segment);
+    // Runs are grown: the edge directions, corner scores and sharpness are read no more.
+    features.release_for_faces();
+    clock.lap("segment");
     let mut planar = faces::planar_faces(positions, &grid, &features, &local);
+    // Faces are grown: what the later stages and the outputs read of the features is the
+    // labels and the split. Freeing the rest as soon as each is done keeps it out of the
+    // faces stage's peak and of the fits', rectify's and convexity's (10M points: see
+    // README, issue 11).
+    features.release_shape();
     // Occlusion boundaries (a depth jump of the scan's grid, a face seen edge-on from the
     // sensor) are borders of the scan: no face, and their runs no sharp edge.
     let borders = Borders::new(&cloud, &distinct, &settings.input.sensors);
@@ -219,13 +233,6 @@ pub fn process(cloud: Cloud, settings: &Settings, clock: &mut impl LapClock) -> 
         );
     }
     clock.lap("faces");
-    // Edge runs are grown at the scale of the candidates (the points near edges), not of the
-    // whole cloud.
-    let run_scale = local
-        .around((0..positions.len() as u32).filter(|&i| features.candidate[i as usize]))
-        .unwrap_or(scale);
-    let mut segments = segment::segment(positions, &features, &run_scale, &settings.segment);
-    clock.lap("segment");
     let surface = edges::Surface {
         positions,
         outlier: &features.outlier,
@@ -499,15 +506,19 @@ impl<'a> Borders<'a> {
 }
 
 /// The per-point features of the distinct positions, for every point of the cloud.
+/// Arrays released after segmentation (empty) stay empty.
 fn expand_features(f: Features, distinct: &Distinct) -> Features {
+    fn kept<T: Clone>(distinct: &Distinct, v: Vec<T>) -> Vec<T> {
+        if v.is_empty() { v } else { distinct.expand(v) }
+    }
     Features {
-        normal: distinct.expand(f.normal),
-        sharpness: distinct.expand(f.sharpness),
-        variation: distinct.expand(f.variation),
-        count: distinct.expand(f.count),
+        normal: kept(distinct, f.normal),
+        sharpness: kept(distinct, f.sharpness),
+        variation: kept(distinct, f.variation),
+        count: kept(distinct, f.count),
         split: distinct.expand(f.split),
-        direction: distinct.expand(f.direction),
-        corner: distinct.expand(f.corner),
+        direction: kept(distinct, f.direction),
+        corner: kept(distinct, f.corner),
         candidate: distinct.expand(f.candidate),
         outlier: distinct.expand(f.outlier),
         split_threshold: f.split_threshold,

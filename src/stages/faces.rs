@@ -154,15 +154,18 @@ pub fn planar_faces(
     // each point reads a bounded number of neighbours.
     let fine = {
         let sub: Vec<[f64; 3]> = ids.iter().map(|&i| positions[i as usize]).collect();
-        Grid::new(&sub, REACH * nine_in_ten(&scale.spacing))
-            .ok()
-            .map(|g| match g.crowd(&sub, CROWD_FACTOR, CROWD_FLOOR) {
-                Some(crowd) => {
-                    ids = crowd.ids.iter().map(|&k| ids[k as usize]).collect();
-                    crowd.grid
-                }
-                None => g,
-            })
+        Grid::new(
+            &sub,
+            REACH * nine_in_ten((0..scale.len()).map(|i| scale.spacing(i)).collect()),
+        )
+        .ok()
+        .map(|g| match g.crowd(&sub, CROWD_FACTOR, CROWD_FLOOR) {
+            Some(crowd) => {
+                ids = crowd.ids.iter().map(|&k| ids[k as usize]).collect();
+                crowd.grid
+            }
+            None => g,
+        })
     };
     let full = grid;
     let (grid, to_id): (&Grid, Option<&[u32]>) = match &fine {
@@ -246,7 +249,7 @@ fn reach_edges(
             / tolerance[f as usize];
         (d <= 1.0).then_some((j, d, f))
     };
-    let reach = |i: u32| REACH * f64::from(scale.spacing[i as usize]);
+    let reach = |i: u32| REACH * f64::from(scale.spacing(i as usize));
     // Offers are sorted below, so the order in which workers collect them does not matter.
     let join = |mut a: Vec<(u32, f64, u32)>, mut b: Vec<(u32, f64, u32)>| {
         a.append(&mut b);
@@ -372,7 +375,7 @@ fn grow(
         queue.push_back(seed);
         while let Some(i) = queue.pop_front() {
             let i = i as usize;
-            let reach = REACH * f64::from(scale.spacing[i]);
+            let reach = REACH * f64::from(scale.spacing(i));
             grid.for_each_within(positions[i], reach, |j, _, _| {
                 let j = to_id.map_or(j, |ids| ids[j as usize]) as usize;
                 if !eligible(j) {
@@ -387,7 +390,7 @@ fn grow(
                 }
                 let nj = normals[j].map(f64::from);
                 let d = sub(positions[j], origin);
-                let tol = plane_tolerance(f64::from(scale.noise[j]), f64::from(scale.spacing[j]));
+                let tol = plane_tolerance(f64::from(scale.noise(j)), f64::from(scale.spacing(j)));
                 if dot(nj, normal).abs() < cos_tol || dot(normal, sub(d, centre)).abs() > tol {
                     if refused_by[j] != stamp {
                         refused_by[j] = stamp;
@@ -456,7 +459,10 @@ fn narrow_faces(
         return;
     }
     let sub: Vec<[f64; 3]> = ids.iter().map(|&i| positions[i as usize]).collect();
-    let Ok(grid) = Grid::new(&sub, REACH * nine_in_ten(&scale.spacing)) else {
+    let Ok(grid) = Grid::new(
+        &sub,
+        REACH * nine_in_ten((0..scale.len()).map(|i| scale.spacing(i)).collect()),
+    ) else {
         return;
     };
     // A crowded cloud grows no narrow faces: their growth reads every candidate's
@@ -545,7 +551,7 @@ fn drop_edge_bands(
         let plane = &state.planes[id];
         let mut touched: Vec<u32> = Vec::new();
         for &i in pts {
-            let reach = 2.0 * REACH * f64::from(scale.spacing[i as usize]);
+            let reach = 2.0 * REACH * f64::from(scale.spacing(i as usize));
             full.for_each_within(positions[i as usize], reach, |j, _, _| {
                 let l = state.label[j as usize];
                 if l != NO_FACE && (l as usize) != id && !touched.contains(&l) {
@@ -666,7 +672,7 @@ fn small_normals(
     ids.par_iter()
         .map(|&i| {
             let i = i as usize;
-            let (h, s) = (f64::from(scale.spacing[i]), f64::from(scale.noise[i]));
+            let (h, s) = (f64::from(scale.spacing(i)), f64::from(scale.noise(i)));
             let mut m = [0.0; 10];
             grid.for_each_within(positions[i], REACH * h, |_, d, _| add_moments(&mut m, d));
             match pca_from_moments(&m) {
@@ -776,7 +782,7 @@ fn near_candidates(
     features: &Features,
     scale: &LocalScale,
 ) -> Option<Vec<bool>> {
-    let cell = NEAR_CANDIDATES * nine_in_ten(&scale.radius);
+    let cell = NEAR_CANDIDATES * nine_in_ten((0..scale.len()).map(|i| scale.radius(i)).collect());
     if cell.is_nan() || cell <= 0.0 {
         return None;
     }
@@ -817,8 +823,7 @@ fn near_candidates(
 }
 
 /// The value nine in ten of `v` are at most (rank ⌊0.9·(n−1)⌋); 0 for none.
-fn nine_in_ten(v: &[f32]) -> f64 {
-    let mut v = v.to_vec();
+fn nine_in_ten(mut v: Vec<f32>) -> f64 {
     if v.is_empty() {
         return 0.0;
     }

@@ -91,7 +91,8 @@ impl Default for FeatureParams {
     }
 }
 
-/// Per-point outputs of the features stage, indexed by point id.
+/// Per-point outputs of the features stage, indexed by point id. In a run's `Outcome` the
+/// arrays [`Features::release_shape`] frees are empty.
 #[derive(Debug, Clone, Default)]
 pub struct Features {
     /// Unit normal of the neighbourhood's best plane (sign arbitrary).
@@ -116,10 +117,26 @@ pub struct Features {
     pub split_threshold: f32,
 }
 
-/// One point's plane fit (pass 1): id, normal, sharpness, surface variation, count.
-type PlaneRow = (u32, [f32; 3], f32, f32, u32);
-/// One point's normal tensor (pass 2): id, split, edge direction, corner.
-type TensorRow = (u32, f32, [f32; 3], f32);
+impl Features {
+    /// Frees the arrays only segmentation reads (edge direction, corner score) and the
+    /// sharpness nothing reads after this stage, leaving them empty.
+    pub fn release_for_faces(&mut self) {
+        self.direction = Vec::new();
+        self.corner = Vec::new();
+        self.sharpness = Vec::new();
+    }
+
+    /// Frees the arrays faces and segmentation read (normal, variation, count, and those of
+    /// [`Features::release_for_faces`]), leaving them empty; `candidate`, `outlier` and
+    /// `split` stay. The pipeline frees them as soon as runs and faces are grown, so that
+    /// the later stages do not carry 40 bytes a point they never read.
+    pub fn release_shape(&mut self) {
+        self.release_for_faces();
+        self.normal = Vec::new();
+        self.variation = Vec::new();
+        self.count = Vec::new();
+    }
+}
 
 /// Cells per unit of parallel work: a few thousand points.
 const BLOCK_CHUNK: usize = 256;
@@ -130,32 +147,34 @@ const BLOCK_CHUNK: usize = 256;
 const CROWD_FACTOR: usize = 64;
 const CROWD_FLOOR: usize = 1024;
 
-/// `row(block, id)` for every point of `blocks`, in parallel over chunks of `BLOCK_CHUNK`
-/// blocks. Each chunk's rows come back in a vector of their own, sized exactly, for the caller
-/// to write back by id and free one by one: a flat collect held every row twice at its peak
-/// (rayon's list of pieces and the vector they are appended to; 56 B a point in pass 1).
-/// `done(n)` hears of each chunk's n points.
-fn rows_by_chunk<T: Send>(
-    grid: &Grid,
-    blocks: &[Block],
-    row: impl Fn(&Block, u32) -> T + Sync,
-    done: impl Fn(u64) + Sync,
-) -> Vec<Vec<T>> {
-    blocks
-        .par_chunks(BLOCK_CHUNK)
-        .map(|chunk| {
-            let mut rows = Vec::with_capacity(chunk.iter().map(|b| b.slots.len()).sum());
-            for block in chunk {
-                rows.extend(
-                    grid.slot_ids(block.slots.clone())
-                        .iter()
-                        .map(|&i| row(block, i)),
-                );
-            }
-            done(rows.len() as u64);
-            rows
-        })
-        .collect()
+/// `v` (one value per slot) cut into the stretches of slots `lens` long, in order.
+fn split_by<'a, T>(mut v: &'a mut [T], lens: &[usize]) -> Vec<&'a mut [T]> {
+    let mut parts = Vec::with_capacity(lens.len());
+    for &len in lens {
+        let (part, rest) = std::mem::take(&mut v).split_at_mut(len);
+        parts.push(part);
+        v = rest;
+    }
+    parts
+}
+
+/// The points of a chunk of cells in slot order, each with its cell.
+fn slots_of<'a>(grid: &'a Grid, chunk: &'a [Block]) -> impl Iterator<Item = (&'a Block, u32)> {
+    chunk
+        .iter()
+        .flat_map(move |b| grid.slot_ids(b.slots.clone()).iter().map(move |&i| (b, i)))
+}
+
+/// `v` (one value per slot) by point id: the value of slot s at index `ids[s]`. The
+/// features are computed in the grid's slot order (each chunk of cells writes its own
+/// stretch of the arrays, with no rows held on the side) and handed out by point id, one
+/// array at a time, so that at most one array is held twice.
+fn slots_to_ids<T: Copy + Default>(v: Vec<T>, ids: &[u32]) -> Vec<T> {
+    let mut out = vec![T::default(); v.len()];
+    for (&i, &x) in ids.iter().zip(&v) {
+        out[i as usize] = x;
+    }
+    out
 }
 
 /// Computes the per-point features, each point with its own radius and noise from `scale`.
@@ -171,7 +190,7 @@ pub fn features(
     // Noise floor: never divide by less than a millionth of the spacing squared, so a
     // noise-free synthetic scan still gets finite scores.
     let var_of = |i: usize| {
-        let (s, h) = (f64::from(scale.noise[i]), f64::from(scale.spacing[i]));
+        let (s, h) = (f64::from(scale.noise(i)), f64::from(scale.spacing(i)));
         (s * s).max(1e-6 * h * h)
     };
     // Work cell by cell, in the grid's spatial order (cache locality, and the 27 cells around
@@ -186,49 +205,68 @@ pub fn features(
         );
     }
 
-    // Pass 1: plane fit of each neighbourhood.
+    // The cells' chunks, each owning a stretch of slots: the blocks cover the slots in order.
+    let chunks: Vec<&[Block]> = blocks.chunks(BLOCK_CHUNK).collect();
+    let lens: Vec<usize> = chunks
+        .iter()
+        .map(|c| c.iter().map(|b| b.slots.len()).sum())
+        .collect();
+    debug_assert_eq!(lens.iter().sum::<usize>(), n);
+
+    // Pass 1: plane fit of each neighbourhood. Every array in slot order until the end.
     let mut normal = vec![[0.0f32; 3]; n];
     let mut sharpness = vec![0.0f32; n];
     let mut variation = vec![0.0f32; n];
     let mut count = vec![0u32; n];
-    let pass1: Vec<Vec<PlaneRow>> = rows_by_chunk(
-        grid,
-        &blocks,
-        |block, i| {
-            let q = positions[i as usize];
-            let r = f64::from(scale.radius[i as usize]);
-            let var = var_of(i as usize);
-            let mut m = [0.0f64; 10];
-            match &crowd {
-                None => grid.for_each_in_block_weighted(block, q, r, |_, d, w| {
-                    add_moments_weighted(&mut m, d, w)
-                }),
-                Some(c) => c.grid.for_each_within(q, r, |k, d, _| {
-                    add_moments_weighted(&mut m, d, c.weight[k as usize])
-                }),
-            }
-            match pca_from_moments(&m) {
-                Some(p) => {
-                    let sum = p.eigenvalues.iter().sum::<f64>();
-                    let v = if sum > 0.0 {
-                        p.eigenvalues[0] / sum
-                    } else {
-                        0.0
-                    };
-                    let nrm = p.normal.map(|c| c as f32);
-                    let c = m[0].round() as u32;
-                    (i, nrm, (p.eigenvalues[0] / var) as f32, v as f32, c)
+    split_by(&mut normal, &lens)
+        .into_iter()
+        .zip(split_by(&mut sharpness, &lens))
+        .zip(split_by(&mut variation, &lens))
+        .zip(split_by(&mut count, &lens))
+        .zip(&chunks)
+        .collect::<Vec<_>>()
+        .into_par_iter()
+        .for_each(|((((nrm, sh), va), co), chunk)| {
+            for (k, (block, i)) in slots_of(grid, chunk).enumerate() {
+                let q = positions[i as usize];
+                let r = f64::from(scale.radius(i as usize));
+                let var = var_of(i as usize);
+                let mut m = [0.0f64; 10];
+                match &crowd {
+                    None => grid.for_each_in_block_weighted(block, q, r, |_, d, w| {
+                        add_moments_weighted(&mut m, d, w)
+                    }),
+                    Some(c) => c.grid.for_each_within(q, r, |k, d, _| {
+                        add_moments_weighted(&mut m, d, c.weight[k as usize])
+                    }),
                 }
-                None => (i, [0.0; 3], 0.0, 0.0, 1),
+                (nrm[k], sh[k], va[k], co[k]) = match pca_from_moments(&m) {
+                    Some(p) => {
+                        let sum = p.eigenvalues.iter().sum::<f64>();
+                        let v = if sum > 0.0 {
+                            p.eigenvalues[0] / sum
+                        } else {
+                            0.0
+                        };
+                        let c = m[0].round() as u32;
+                        (
+                            p.normal.map(|c| c as f32),
+                            (p.eigenvalues[0] / var) as f32,
+                            v as f32,
+                            c,
+                        )
+                    }
+                    None => ([0.0; 3], 0.0, 0.0, 1),
+                };
             }
-        },
-        |n| progress.inc(n / 2),
-    );
-    for rows in pass1 {
-        for (i, nrm, s, v, c) in rows {
-            let i = i as usize;
-            (normal[i], sharpness[i], variation[i], count[i]) = (nrm, s, v, c);
-        }
+            let done = nrm.len() as u64;
+            progress.inc(done / 2);
+        });
+    let ids = grid.slot_ids(0..n);
+    // The neighbours' normals are read in slot order by the block scans
+    // (`Grid::for_each_in_block_weighted`), by id when a crowd stands in.
+    if crowd.is_some() {
+        normal = slots_to_ids(normal, ids);
     }
 
     // Pass 2: the normal tensor T = mean(n nᵀ) over the same neighbourhood (sign-free). On a
@@ -240,33 +278,36 @@ pub fn features(
     let mut split = vec![0.0f32; n];
     let mut direction = vec![[0.0f32; 3]; n];
     let mut corner = vec![0.0f32; n];
-    // The neighbours' normals in the grid's slot order, read in order by the block scans
-    // (`Grid::for_each_in_block_weighted`), or by id when a crowd stands in.
-    let in_slots;
-    let normals: &[[f32; 3]] = match &crowd {
-        None => {
-            in_slots = grid.in_slot_order(&normal);
-            &in_slots
-        }
-        Some(_) => &normal,
-    };
-    let pass2: Vec<Vec<TensorRow>> = rows_by_chunk(
-        grid,
-        &blocks,
-        |block, i| {
-            let r = f64::from(scale.radius[i as usize]);
-            let q = positions[i as usize];
-            let (t, d) = normal_tensor(grid, crowd.as_ref(), block, normals, q, r);
-            (i, t[1] as f32, d.map(|c| c as f32), t[0] as f32)
-        },
-        |n| progress.inc(n - n / 2),
-    );
-    for rows in pass2 {
-        for (i, s, d, c) in rows {
-            let i = i as usize;
-            (split[i], direction[i], corner[i]) = (s, d, c);
-        }
+    split_by(&mut split, &lens)
+        .into_iter()
+        .zip(split_by(&mut direction, &lens))
+        .zip(split_by(&mut corner, &lens))
+        .zip(&chunks)
+        .collect::<Vec<_>>()
+        .into_par_iter()
+        .for_each(|(((sp, di), co), chunk)| {
+            for (k, (block, i)) in slots_of(grid, chunk).enumerate() {
+                let r = f64::from(scale.radius(i as usize));
+                let q = positions[i as usize];
+                let (t, d) = normal_tensor(grid, crowd.as_ref(), block, &normal, q, r);
+                (sp[k], di[k], co[k]) = (t[1] as f32, d.map(|c| c as f32), t[0] as f32);
+            }
+            let done = sp.len() as u64;
+            progress.inc(done - done / 2);
+        });
+    // The cells' 27-cell lists (11 bytes a point) are done with before the arrays are
+    // handed out, each held twice for a moment.
+    drop(chunks);
+    drop(blocks);
+    if crowd.is_none() {
+        normal = slots_to_ids(normal, ids);
     }
+    let sharpness = slots_to_ids(sharpness, ids);
+    let variation = slots_to_ids(variation, ids);
+    let count = slots_to_ids(count, ids);
+    let split = slots_to_ids(split, ids);
+    let direction = slots_to_ids(direction, ids);
+    let corner = slots_to_ids(corner, ids);
 
     // Thresholds from the cloud's own statistics (medians: faces are the majority).
     let median_count = median_u32(&count);
@@ -468,5 +509,64 @@ mod tests {
         let f = features(&pts, &grid, &local, &params, &Progress::hidden());
         let last = pts.len() - 1;
         assert!(f.outlier[last] && !f.candidate[last]);
+    }
+
+    #[test]
+    fn slots_to_ids_puts_each_slot_value_at_its_id() {
+        let ids: Vec<u32> = vec![3, 0, 4, 1, 2];
+        let v = vec![30, 0, 40, 10, 20];
+        assert_eq!(slots_to_ids(v, &ids), vec![0, 10, 20, 30, 40]);
+        assert!(slots_to_ids(Vec::<u8>::new(), &[]).is_empty());
+        let lens = [2, 0, 3];
+        let mut w = [1, 2, 3, 4, 5];
+        let parts = split_by(&mut w, &lens);
+        assert_eq!(parts.iter().map(|p| p.len()).collect::<Vec<_>>(), lens);
+        assert_eq!(parts[2], [3, 4, 5]);
+    }
+
+    #[test]
+    fn every_point_gets_the_plane_of_its_own_neighbourhood() {
+        // The passes work in the grid's slot order and hand the arrays out by id: check a
+        // spread of points against a brute-force plane fit of their own neighbours.
+        let (pts, _) = dihedral(120.0, 1.0, 0.15, 12.0, 9);
+        let scale = Scale {
+            spacing: 1.0,
+            pitch: 1.0,
+            noise: 0.15,
+            radius: 3.0,
+        };
+        let local = LocalScale::uniform(pts.len(), scale);
+        // Cells narrower than the radius: the wider query path too.
+        for cell in [3.0, 1.3] {
+            let grid = Grid::new(&pts, cell).unwrap();
+            let f = features(
+                &pts,
+                &grid,
+                &local,
+                &FeatureParams::default(),
+                &Progress::hidden(),
+            );
+            for i in (0..pts.len()).step_by(97) {
+                let mut m = [0.0f64; 10];
+                for q in &pts {
+                    let d = [0, 1, 2].map(|k| q[k] - pts[i][k]);
+                    if d[0] * d[0] + d[1] * d[1] + d[2] * d[2] <= 9.0 {
+                        add_moments(&mut m, d);
+                    }
+                }
+                let p = pca_from_moments(&m).unwrap();
+                assert_eq!(f.count[i], m[0].round() as u32, "point {i}");
+                let cos: f64 = (0..3)
+                    .map(|k| p.normal[k] * f64::from(f.normal[i][k]))
+                    .sum();
+                assert!(cos.abs() > 1.0 - 1e-5, "point {i}: normals at cos {cos}");
+                let sharp = p.eigenvalues[0] / (0.15 * 0.15);
+                assert!(
+                    (f64::from(f.sharpness[i]) - sharp).abs() <= 1e-4 * sharp.max(1.0),
+                    "point {i}: sharpness {} against {sharp}",
+                    f.sharpness[i]
+                );
+            }
+        }
     }
 }
