@@ -194,7 +194,8 @@ pub fn features(
         (s * s).max(1e-6 * h * h)
     };
     // Work cell by cell, in the grid's spatial order (cache locality, and the 27 cells around
-    // a cell found once for all its points); write back by id.
+    // a cell found once for all its points), into arrays in that order; handed out by id at
+    // the end.
     let blocks = grid.blocks();
     let crowd = grid.crowd(positions, CROWD_FACTOR, CROWD_FLOOR);
     if let Some(c) = &crowd {

@@ -4,8 +4,8 @@
 //! Inputs: positions, the cloud's mean nearest-neighbour distance (only to size the sampling
 //! cells) and `ScaleRules` (radius and noise overrides, the radius rule; the features stage's
 //! settings give them). Outputs:
-//! `LocalScale`, three side arrays by point id and the cloud-wide medians as a summary
-//! `Scale` that no decision depends on.
+//! `LocalScale` (each point's sampling cell, and each cell's spacing, pitch, noise and
+//! radius) and the cloud-wide medians as a summary `Scale` that no decision depends on.
 //!
 //! Why local: real scans are not uniform. A line scanner is 3–10x denser along its lines than
 //! across them, structured light samples a grid whose pitch grows with the incidence, views
@@ -197,7 +197,10 @@ impl LocalScale {
 
     /// The smallest and the largest radius of the points (`(inf, 0)` without points).
     pub fn radius_range(&self) -> (f32, f32) {
-        // Every cell holds at least one point.
+        if self.cell.is_empty() {
+            return (f32::INFINITY, 0.0);
+        }
+        // Every cell holds at least one point (`uniform` for no points aside).
         self.cells
             .iter()
             .fold((f32::INFINITY, 0.0f32), |(lo, hi), c| {
@@ -732,6 +735,9 @@ mod tests {
         let local = local_scale(&pts, 1.0, &params).unwrap();
         assert!((0..local.len()).all(|i| local.radius(i) == 3.5));
         assert!((0..local.len()).all(|i| local.noise(i) == 0.2));
+        assert_eq!(local.radius_range(), (3.5, 3.5));
+        let none = LocalScale::uniform(0, local.summary());
+        assert_eq!(none.radius_range(), (f32::INFINITY, 0.0));
     }
 
     #[test]
