@@ -308,10 +308,12 @@ pub(crate) fn read_lidar(path: &Path, keep_records: bool) -> Result<(Loaded, Lid
 }
 
 /// Stack of the threads that decode LAS/LAZ (virtual: only the pages used are committed).
-/// laz 0.13 decodes the GPS times of point formats 6-10 recursively, as deep as the data
+/// laz 0.13 decoded the GPS times of point formats 6-10 recursively, as deep as the data
 /// leads it: a damaged 1 KB LAZ file (found by fuzzing) overflowed the 2 MB stacks of
-/// rayon's threads and aborted the process; it needed less than 8 MB. The decoding runs in
-/// its own pool of as many threads as the caller's, with 64 MB each.
+/// rayon's threads and aborted the process; it needed less than 8 MB, and a later one more
+/// than 64 MB. The vendored laz (vendor/README.md) reads them in a loop; the decoding keeps
+/// its own pool of as many threads as the caller's, with 64 MB each, as a margin for the
+/// rest of the decoder.
 const DECODER_STACK: usize = 64 << 20;
 
 /// [`read_lidar`] on the decoding pool's threads.
