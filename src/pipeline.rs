@@ -184,6 +184,7 @@ pub fn process(cloud: Cloud, settings: &Settings, clock: &mut impl LapClock) -> 
         .map_err(|e| in_file(&path, e))?;
     drop(tree);
     let scale = local.summary();
+    let (radius_lo, radius_hi) = local.radius_range();
     tracing::info!(
         "spacing {:.6}, noise sigma {:.6} ({:.2} spacings), radius {:.6} (medians of the local \
          scale; radius from {:.6} to {:.6})",
@@ -191,8 +192,8 @@ pub fn process(cloud: Cloud, settings: &Settings, clock: &mut impl LapClock) -> 
         scale.noise,
         scale.noise / scale.spacing,
         scale.radius,
-        local.radius_range().0,
-        local.radius_range().1
+        radius_lo,
+        radius_hi
     );
     clock.lap("scale");
     // Cells as wide as nine radii in ten: the rest take the wider query.

@@ -42,7 +42,7 @@ use rayon::prelude::*;
 use crate::geometry::moments::{add_moments, pca_from_moments};
 use crate::geometry::{dot, sub};
 use crate::neighbours::Grid;
-use crate::stages::features::{Features, LocalScale};
+use crate::stages::features::{Features, LocalScale, Scale};
 
 /// Label of a point on no planar face.
 pub const NO_FACE: u32 = u32::MAX;
@@ -152,20 +152,18 @@ pub fn planar_faces(
     // features' grid (all points, cells of a radius) would. In a crowded cloud only the
     // crowd's kept points grow faces (`Grid::crowd`; the others stay out of every face), so
     // each point reads a bounded number of neighbours.
+    let fine_cell = REACH * nine_in_ten(scale, |s| s.spacing);
     let fine = {
         let sub: Vec<[f64; 3]> = ids.iter().map(|&i| positions[i as usize]).collect();
-        Grid::new(
-            &sub,
-            REACH * nine_in_ten((0..scale.len()).map(|i| scale.spacing(i)).collect()),
-        )
-        .ok()
-        .map(|g| match g.crowd(&sub, CROWD_FACTOR, CROWD_FLOOR) {
-            Some(crowd) => {
-                ids = crowd.ids.iter().map(|&k| ids[k as usize]).collect();
-                crowd.grid
-            }
-            None => g,
-        })
+        Grid::new(&sub, fine_cell)
+            .ok()
+            .map(|g| match g.crowd(&sub, CROWD_FACTOR, CROWD_FLOOR) {
+                Some(crowd) => {
+                    ids = crowd.ids.iter().map(|&k| ids[k as usize]).collect();
+                    crowd.grid
+                }
+                None => g,
+            })
     };
     let full = grid;
     let (grid, to_id): (&Grid, Option<&[u32]>) = match &fine {
@@ -249,7 +247,7 @@ fn reach_edges(
             / tolerance[f as usize];
         (d <= 1.0).then_some((j, d, f))
     };
-    let reach = |i: u32| REACH * f64::from(scale.spacing(i as usize));
+    let reach = |i: u32| REACH * scale.at(i as usize).spacing;
     // Offers are sorted below, so the order in which workers collect them does not matter.
     let join = |mut a: Vec<(u32, f64, u32)>, mut b: Vec<(u32, f64, u32)>| {
         a.append(&mut b);
@@ -375,7 +373,7 @@ fn grow(
         queue.push_back(seed);
         while let Some(i) = queue.pop_front() {
             let i = i as usize;
-            let reach = REACH * f64::from(scale.spacing(i));
+            let reach = REACH * scale.at(i).spacing;
             grid.for_each_within(positions[i], reach, |j, _, _| {
                 let j = to_id.map_or(j, |ids| ids[j as usize]) as usize;
                 if !eligible(j) {
@@ -390,7 +388,8 @@ fn grow(
                 }
                 let nj = normals[j].map(f64::from);
                 let d = sub(positions[j], origin);
-                let tol = plane_tolerance(f64::from(scale.noise(j)), f64::from(scale.spacing(j)));
+                let Scale { noise, spacing, .. } = scale.at(j);
+                let tol = plane_tolerance(noise, spacing);
                 if dot(nj, normal).abs() < cos_tol || dot(normal, sub(d, centre)).abs() > tol {
                     if refused_by[j] != stamp {
                         refused_by[j] = stamp;
@@ -459,10 +458,7 @@ fn narrow_faces(
         return;
     }
     let sub: Vec<[f64; 3]> = ids.iter().map(|&i| positions[i as usize]).collect();
-    let Ok(grid) = Grid::new(
-        &sub,
-        REACH * nine_in_ten((0..scale.len()).map(|i| scale.spacing(i)).collect()),
-    ) else {
+    let Ok(grid) = Grid::new(&sub, REACH * nine_in_ten(scale, |s| s.spacing)) else {
         return;
     };
     // A crowded cloud grows no narrow faces: their growth reads every candidate's
@@ -551,7 +547,7 @@ fn drop_edge_bands(
         let plane = &state.planes[id];
         let mut touched: Vec<u32> = Vec::new();
         for &i in pts {
-            let reach = 2.0 * REACH * f64::from(scale.spacing(i as usize));
+            let reach = 2.0 * REACH * scale.at(i as usize).spacing;
             full.for_each_within(positions[i as usize], reach, |j, _, _| {
                 let l = state.label[j as usize];
                 if l != NO_FACE && (l as usize) != id && !touched.contains(&l) {
@@ -672,7 +668,11 @@ fn small_normals(
     ids.par_iter()
         .map(|&i| {
             let i = i as usize;
-            let (h, s) = (f64::from(scale.spacing(i)), f64::from(scale.noise(i)));
+            let Scale {
+                spacing: h,
+                noise: s,
+                ..
+            } = scale.at(i);
             let mut m = [0.0; 10];
             grid.for_each_within(positions[i], REACH * h, |_, d, _| add_moments(&mut m, d));
             match pca_from_moments(&m) {
@@ -782,7 +782,7 @@ fn near_candidates(
     features: &Features,
     scale: &LocalScale,
 ) -> Option<Vec<bool>> {
-    let cell = NEAR_CANDIDATES * nine_in_ten((0..scale.len()).map(|i| scale.radius(i)).collect());
+    let cell = NEAR_CANDIDATES * nine_in_ten(scale, |s| s.radius);
     if cell.is_nan() || cell <= 0.0 {
         return None;
     }
@@ -822,13 +822,11 @@ fn near_candidates(
     Some(positions.iter().map(|p| near[index(*p)]).collect())
 }
 
-/// The value nine in ten of `v` are at most (rank ⌊0.9·(n−1)⌋); 0 for none.
-fn nine_in_ten(mut v: Vec<f32>) -> f64 {
-    if v.is_empty() {
-        return 0.0;
-    }
-    let k = (v.len() - 1) * 9 / 10;
-    f64::from(*v.select_nth_unstable_by(k, f32::total_cmp).1)
+/// The length `pick` takes from the points' scale that nine in ten of them are at most
+/// (rank ⌊0.9·(n−1)⌋); 0 for no points.
+fn nine_in_ten(scale: &LocalScale, pick: impl Fn(&Scale) -> f64) -> f64 {
+    let k = scale.len().saturating_sub(1) * 9 / 10;
+    scale.ranked(pick, k).unwrap_or(0.0)
 }
 
 /// The plane of a grown region when it is a planar face: large enough, closed (see

@@ -190,7 +190,11 @@ pub fn features(
     // Noise floor: never divide by less than a millionth of the spacing squared, so a
     // noise-free synthetic scan still gets finite scores.
     let var_of = |i: usize| {
-        let (s, h) = (f64::from(scale.noise(i)), f64::from(scale.spacing(i)));
+        let Scale {
+            noise: s,
+            spacing: h,
+            ..
+        } = scale.at(i);
         (s * s).max(1e-6 * h * h)
     };
     // Work cell by cell, in the grid's spatial order (cache locality, and the 27 cells around
@@ -230,7 +234,7 @@ pub fn features(
         .for_each(|((((nrm, sh), va), co), chunk)| {
             for (k, (block, i)) in slots_of(grid, chunk).enumerate() {
                 let q = positions[i as usize];
-                let r = f64::from(scale.radius(i as usize));
+                let r = scale.at(i as usize).radius;
                 let var = var_of(i as usize);
                 let mut m = [0.0f64; 10];
                 match &crowd {
@@ -288,7 +292,7 @@ pub fn features(
         .into_par_iter()
         .for_each(|(((sp, di), co), chunk)| {
             for (k, (block, i)) in slots_of(grid, chunk).enumerate() {
-                let r = f64::from(scale.radius(i as usize));
+                let r = scale.at(i as usize).radius;
                 let q = positions[i as usize];
                 let (t, d) = normal_tensor(grid, crowd.as_ref(), block, &normal, q, r);
                 (sp[k], di[k], co[k]) = (t[1] as f32, d.map(|c| c as f32), t[0] as f32);

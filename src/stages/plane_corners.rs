@@ -261,7 +261,7 @@ pub(crate) fn faces_seen(
 ) {
     let i = c as usize;
     seen.clear();
-    let reach = SEE_REACH * f64::from(scale.radius(i));
+    let reach = SEE_REACH * scale.at(i).radius;
     grid.for_each_within(positions[i], reach, |j, _, _| {
         let l = faces.label[j as usize];
         if l == NO_FACE {

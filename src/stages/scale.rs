@@ -171,28 +171,27 @@ impl LocalScale {
         &self.cells[self.cell[i] as usize]
     }
 
-    /// Spacing of point `i` (across the sampling pattern).
-    #[inline]
-    pub fn spacing(&self, i: usize) -> f32 {
-        self.of(i)[0]
-    }
-
-    /// Pitch of point `i` (the finest spacing of the pattern).
-    #[inline]
-    pub fn pitch(&self, i: usize) -> f32 {
-        self.of(i)[1]
-    }
-
-    /// Noise sigma of point `i`.
-    #[inline]
-    pub fn noise(&self, i: usize) -> f32 {
-        self.of(i)[2]
-    }
-
-    /// Neighbourhood radius of point `i`.
-    #[inline]
-    pub fn radius(&self, i: usize) -> f32 {
-        self.of(i)[3]
+    /// The k-th smallest (from 0) over the points of the length `pick` takes from their
+    /// scale, e.g. `|s| s.spacing`; `None` for k past the points. Read from the cells, each
+    /// counted for its points: no per-point array.
+    pub fn ranked(&self, pick: impl Fn(&Scale) -> f64, k: usize) -> Option<f64> {
+        let mut count = vec![0usize; self.cells.len()];
+        for &c in &self.cell {
+            count[c as usize] += 1;
+        }
+        let mut values: Vec<(f32, usize)> = self
+            .cells
+            .iter()
+            .zip(count)
+            .filter(|&(_, n)| n > 0)
+            .map(|(&c, n)| (pick(&scale_of(c)) as f32, n))
+            .collect();
+        values.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let mut seen = 0;
+        values.into_iter().find_map(|(v, n)| {
+            seen += n;
+            (k < seen).then_some(f64::from(v))
+        })
     }
 
     /// The smallest and the largest radius of the points (`(inf, 0)` without points).
@@ -209,14 +208,9 @@ impl LocalScale {
     }
 
     /// The scale of point `i`.
+    #[inline]
     pub fn at(&self, i: usize) -> Scale {
-        let [spacing, pitch, noise, radius] = self.of(i).map(f64::from);
-        Scale {
-            spacing,
-            pitch,
-            noise,
-            radius,
-        }
+        scale_of(*self.of(i))
     }
 
     /// The median scale over some points (an edge's, a corner's); `None` without points.
@@ -258,8 +252,21 @@ impl LocalScale {
 
     /// The `q`-quantile of the radii (0 ≤ q ≤ 1): the neighbour grid's cell; 0 for none.
     pub fn radius_quantile(&self, q: f64) -> f64 {
-        let mut radius: Vec<f32> = (0..self.len()).map(|i| self.radius(i)).collect();
-        quantile_by(&mut radius, q, f32::total_cmp).map_or(0.0, f64::from)
+        let last = self.len().saturating_sub(1);
+        let k = (last as f64 * q.clamp(0.0, 1.0)).round() as usize;
+        self.ranked(|s| s.radius, k).unwrap_or(0.0)
+    }
+}
+
+/// A cell's [spacing, pitch, noise, radius] as a `Scale`.
+#[inline]
+fn scale_of(cell: [f32; 4]) -> Scale {
+    let [spacing, pitch, noise, radius] = cell.map(f64::from);
+    Scale {
+        spacing,
+        pitch,
+        noise,
+        radius,
     }
 }
 
@@ -722,6 +729,18 @@ mod tests {
             h(60 * 120 + 60)
         );
         assert!((h(120 * 120 + 30 * 30 + 15) - 2.0).abs() < 0.2);
+
+        // Ranks read from the cells are the ranks of the per-point values.
+        for pick in [|s: &Scale| s.spacing, |s: &Scale| s.radius] {
+            let mut brute: Vec<f32> = (0..local.len())
+                .map(|i| pick(&local.at(i)) as f32)
+                .collect();
+            brute.sort_by(f32::total_cmp);
+            for k in [0, 1, brute.len() / 3, brute.len() * 9 / 10, brute.len() - 1] {
+                assert_eq!(local.ranked(pick, k), Some(f64::from(brute[k])), "rank {k}");
+            }
+            assert_eq!(local.ranked(pick, brute.len()), None);
+        }
     }
 
     #[test]
@@ -733,8 +752,8 @@ mod tests {
             ..ScaleRules::default()
         };
         let local = local_scale(&pts, 1.0, &params).unwrap();
-        assert!((0..local.len()).all(|i| local.radius(i) == 3.5));
-        assert!((0..local.len()).all(|i| local.noise(i) == 0.2));
+        assert!((0..local.len()).all(|i| local.at(i).radius as f32 == 3.5));
+        assert!((0..local.len()).all(|i| local.at(i).noise as f32 == 0.2));
         assert_eq!(local.radius_range(), (3.5, 3.5));
         let none = LocalScale::uniform(0, local.summary());
         assert_eq!(none.radius_range(), (f32::INFINITY, 0.0));
