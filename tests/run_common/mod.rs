@@ -454,7 +454,8 @@ pub fn job() -> tempfile::TempDir {
 }
 
 /// The scored cases `cases` (names such as "r003,r080") of `sharpedge bench --random 100
-/// --seed SEED`, run in a temporary folder: the bench's JSON `cases` array.
+/// --seed SEED`, run in a temporary folder: the bench's JSON `cases` array, checked to hold
+/// those cases in that order.
 pub fn bench_random_cases(seed: u64, cases: &str) -> Vec<serde_json::Value> {
     let dir = tempfile::tempdir().unwrap();
     let seed = seed.to_string();
@@ -467,5 +468,24 @@ pub fn bench_random_cases(seed: u64, cases: &str) -> Vec<serde_json::Value> {
     .assert_ok();
     let text = std::fs::read_to_string(dir.path().join("b.json")).unwrap();
     let j: serde_json::Value = serde_json::from_str(&text).unwrap();
-    j["cases"].as_array().unwrap().clone()
+    let got = j["cases"].as_array().unwrap().clone();
+    let names: Vec<&str> = got.iter().map(|c| c["name"].as_str().unwrap()).collect();
+    assert_eq!(names, cases.split(',').collect::<Vec<_>>());
+    got
+}
+
+/// [`bench_random_cases`] for draws pinned by their point counts: `(name, points)` each,
+/// failing with "the draw changed" when a case's drawn cloud is not the one a test was
+/// written against.
+pub fn bench_random_draws(seed: u64, draws: &[(&str, u64)]) -> Vec<serde_json::Value> {
+    let names: Vec<&str> = draws.iter().map(|d| d.0).collect();
+    let cases = bench_random_cases(seed, &names.join(","));
+    for (c, (name, points)) in cases.iter().zip(draws) {
+        assert_eq!(
+            c["points"].as_u64(),
+            Some(*points),
+            "{name}: the draw changed"
+        );
+    }
+    cases
 }
