@@ -87,9 +87,10 @@ pub fn rectify(
         };
         let Some(id) = edge_of_run[k] else { continue };
         faces_of[k] = mean_faces(&e.slabs);
-        // How far from the edge its scan leaves the faces: the measured zone and margin.
+        // How far from the edge its scan leaves the faces: the rounding's part of the
+        // measured zone, and the margin.
         let (scale, max_move, zone_margin) = (e.scale, max_move_of(e), zone_margin_of(e));
-        reach_of[k] = e.zone.max(e.hidden) + zone_margin;
+        reach_of[k] = e.rounding.max(e.hidden) + zone_margin;
         for s in &e.slabs {
             let faces = if e.straight {
                 faces_of[k].unwrap_or(s.faces)
