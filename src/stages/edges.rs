@@ -150,7 +150,7 @@ pub struct EdgeFit {
     pub rounding: f64,
     /// The widest zone a rounding could have without showing in those residuals (see
     /// [`hidden_zone`]): where the noise hides the rounding, its points are told from the
-    /// faces' by this, not by `zone` (which is then 0).
+    /// faces' by this, not by `rounding` (which is then 0).
     pub hidden: f64,
     /// Whether the edge had points enough to measure its zone at all (a few slabs' worth do
     /// not): without it nothing tells its abnormal points from its faces', and none moves.
@@ -492,6 +492,8 @@ fn settle_zone(
     let (scale, r) = (ctx.scale, ctx.scale.radius);
     let mut pass = first;
     let mut zone = Zone::default();
+    // The rounding measured on the pass kept, when the last measurement was of that pass.
+    let mut kept_rounding: Option<Option<f64>> = None;
     for _ in 0..2 {
         let measured = abnormal_zone(
             &pass.residuals,
@@ -500,6 +502,7 @@ fn settle_zone(
             median_angle(&pass.slabs),
             format_args!("edge {} after a pass with zone {:.4}", ctx.k, zone.used),
         );
+        kept_rounding = Some(measured.map(|m| m.1));
         zone.known |= measured.is_some();
         let (raw, rounding, hidden) = measured.unwrap_or((0.0, 0.0, 0.0));
         zone.hidden = hidden;
@@ -523,6 +526,7 @@ fn settle_zone(
                 zone.used = next;
                 zone.raw = raw;
                 zone.rounding = rounding;
+                kept_rounding = None;
             }
             _ => break,
         }
@@ -530,16 +534,20 @@ fn settle_zone(
     // How much of the zone a rounding accounts for, from the pass kept: side fits that kept
     // no zone out ran through the rounding and took part of its depth into their lines (seen:
     // seed 3's r065, a 1.1-spacing rounding whose first pass showed a fifth of its depth).
-    if zone.used > 0.0
-        && let Some((_, rounding, _)) = abnormal_zone(
-            &pass.residuals,
-            scale,
-            2.0 * band.max(2.0 * zone.used + 2.0 * r),
-            median_angle(&pass.slabs),
-            format_args!("edge {} kept with zone {:.4}", ctx.k, zone.used),
-        )
-    {
-        zone.rounding = rounding.min(zone.raw);
+    if zone.used > 0.0 {
+        let rounding = kept_rounding.unwrap_or_else(|| {
+            abnormal_zone(
+                &pass.residuals,
+                scale,
+                2.0 * band.max(2.0 * zone.used + 2.0 * r),
+                median_angle(&pass.slabs),
+                format_args!("edge {} kept with zone {:.4}", ctx.k, zone.used),
+            )
+            .map(|m| m.1)
+        });
+        if let Some(rounding) = rounding {
+            zone.rounding = rounding.min(zone.raw);
+        }
     }
     (pass, zone)
 }
@@ -1257,7 +1265,8 @@ const ROUNDING_SHARE: f64 = 0.5;
 /// faces' level). A rounding leaves its faces most at the edge, by a depth that grows with its
 /// width; a zone whose far bins deviate by a few hundredths of a spacing as much as its near
 /// ones is a face seen twice (two views misregistered) or a side fit that stopped short
-/// (a slab fit told a noise from the quieter face), not a rounding that wide.
+/// (a slab fit told a noise from the quieter face), not a rounding that wide. Bins of fewer
+/// than 5 points count neither way, as in [`abnormal_zone`].
 fn rounding_share(
     sum: &[f64],
     cnt: &[usize],
@@ -1266,7 +1275,8 @@ fn rounding_share(
     dihedral_deg: f64,
     zone: f64,
 ) -> f64 {
-    let bins = ((zone / w).round() as usize).min(sum.len());
+    // Whole bins within `zone` (it is a whole number of them as `abnormal_zone` measures it).
+    let bins = ((zone / w + 1e-9).floor() as usize).min(sum.len());
     let mean = |b: usize| sum[b] / cnt[b] as f64 - level((b as f64 + 0.5) * w);
     for nb in (1..=bins).rev() {
         let t = nb as f64 * w;
@@ -1792,7 +1802,7 @@ mod tests {
         let (sum, cnt) = bins_of(16, |b| {
             fillet_bin_mean(0.5, 90.0, w, b) + 0.1 * (b as f64 + 0.5) * w
         });
-        let t = rounding_share(&sum, &cnt, &|s| 0.1 * s, w, 90.0, 0.5);
+        let t = rounding_share(&sum, &cnt, &|s| 0.1 * s, w, 90.0, 3.25);
         assert!((t - 0.5).abs() < 1e-9, "zone {t}");
         // Nothing measured, nothing kept; bins too sparse to judge keep the zone.
         assert_eq!(rounding_share(&sum, &cnt, &|s| 0.1 * s, w, 90.0, 0.0), 0.0);

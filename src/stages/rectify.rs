@@ -10,9 +10,10 @@
 //! Along an edge, an abnormal point (between C and D of its slab) moves within its profile
 //! plane onto the nearer of the two face traces leaving the final edge (the paper's L1 and
 //! L3): the edge position comes from the whole edge's fit, so the rectified points do not
-//! inherit one slab's noise. Near a corner, where slabs stop, points as close to one of the
-//! corner's edges as that edge's abnormal zone reaches move onto the nearest face plane of
-//! the corner.
+//! inherit one slab's noise. Points move out to the part of the edge's measured abnormal zone
+//! that a rounding accounts for (`EdgeFit::rounding`), plus a margin. Near a corner, where
+//! slabs stop, points as close to one of the corner's edges as that reach move onto the
+//! nearest face plane of the corner.
 
 use crate::geometry::{add, cross, dot, norm, point_segment, sub};
 use crate::neighbours::Grid;
@@ -31,7 +32,8 @@ pub struct RectifyParams {
     /// bad fit dragging points across the part).
     pub max_move: f64,
     /// Abnormal points are moved out to this many spacings (plus one noise sigma) beyond the
-    /// abnormal zone measured from an edge's pooled residuals: near tangency a fillet leaves
+    /// rounding's part of the abnormal zone measured from an edge's pooled residuals
+    /// (`EdgeFit::rounding`): near tangency a fillet leaves
     /// its face by less than one bin can show, and a noisy point's position along its face is
     /// off by about σ. Measured at 500k points: 0 leaves a box's ratio at 0.15, 0.5 gives
     /// 0.07; larger margins only move face points of a sharp wedge.
@@ -106,7 +108,7 @@ pub fn rectify(
                 let p = positions[i];
                 let (c, d) = g.nearest(p);
                 let faces = faces.map(|f| orthogonalise(f, d));
-                // Beyond the measured zone the scan is on its face already: leave it as read.
+                // Beyond the rounding the scan is on its face already: leave it as read.
                 if zone_reach(along_face(p, c, d, &faces), p, c, d, scale.noise) > reach_of[k] {
                     continue;
                 }
