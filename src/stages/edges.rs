@@ -1192,11 +1192,12 @@ fn abnormal_zone(
             .max(ZONE_FLOOR * sigma)
             .max(ZONE_MIN_PITCH * scale.pitch)
     };
+    let means = bin_means(&sum, &cnt, &level, w);
     let mut zone = 0.0;
     let mut quiet = 0;
     let mut judged = 0;
     for b in 0..nbin {
-        if cnt[b] < 5 {
+        let Some(mean) = means[b] else {
             // Nor does it jump a gap: scan lines running along the edge fill only the bins
             // at their distances, and a line beyond a gap of more than two pitches that
             // reads a little off its face is not the rounding (seen on a box scanned in
@@ -1205,9 +1206,8 @@ fn abnormal_zone(
                 break;
             }
             continue;
-        }
+        };
         judged += 1;
-        let mean = sum[b] / cnt[b] as f64 - level((b as f64 + 0.5) * w);
         if mean > detectable(cnt[b]) {
             zone = (b as f64 + 1.0) * w;
             quiet = 0;
@@ -1222,10 +1222,11 @@ fn abnormal_zone(
             break;
         }
     }
-    let rounding = rounding_share(&sum, &cnt, &level, w, dihedral_deg, zone);
-    let limits: Vec<f64> = cnt
+    let rounding = rounding_share(&means, w, dihedral_deg, zone);
+    let limits: Vec<f64> = means
         .iter()
-        .map(|&n| if n < 5 { f64::INFINITY } else { detectable(n) })
+        .zip(&cnt)
+        .map(|(m, &n)| m.map_or(f64::INFINITY, |_| detectable(n)))
         .collect();
     let hidden = hidden_zone(&limits, w, dihedral_deg, HIDDEN_MAX * scale.pitch);
     tracing::trace!(
@@ -1259,32 +1260,41 @@ fn abnormal_zone(
 /// 27, then 31 / 32 / 31.
 const ROUNDING_SHARE: f64 = 0.5;
 
+/// Bins with fewer points than this are too sparse to judge.
+const MIN_BIN_POINTS: usize = 5;
+
+/// Each bin's mean residual above the faces' `level` (bins `w` wide, `sum`/`cnt`: residual
+/// sums and counts); `None` where fewer than [`MIN_BIN_POINTS`] points fell.
+fn bin_means(sum: &[f64], cnt: &[usize], level: &impl Fn(f64) -> f64, w: f64) -> Vec<Option<f64>> {
+    sum.iter()
+        .zip(cnt)
+        .enumerate()
+        .map(|(b, (&s, &n))| {
+            (n >= MIN_BIN_POINTS).then(|| s / n as f64 - level((b as f64 + 0.5) * w))
+        })
+        .collect()
+}
+
 /// The widest zone, at most `zone` and in whole bins, whose bins together deviate from the
 /// faces by at least [`ROUNDING_SHARE`] of what a circular rounding of that tangent length
-/// would show in them (`sum`/`cnt`: residual sums and counts per bin `w` wide, `level`: the
-/// faces' level). A rounding leaves its faces most at the edge, by a depth that grows with its
+/// would show in them (`means`: each bin's mean deviation, see [`bin_means`]; bins `w`
+/// wide). A rounding leaves its faces most at the edge, by a depth that grows with its
 /// width; a zone whose far bins deviate by a few hundredths of a spacing as much as its near
 /// ones is a face seen twice (two views misregistered) or a side fit that stopped short
-/// (a slab fit told a noise from the quieter face), not a rounding that wide. Bins of fewer
-/// than 5 points count neither way, as in [`abnormal_zone`].
-fn rounding_share(
-    sum: &[f64],
-    cnt: &[usize],
-    level: &impl Fn(f64) -> f64,
-    w: f64,
-    dihedral_deg: f64,
-    zone: f64,
-) -> f64 {
+/// (a slab fit told a noise from the quieter face), not a rounding that wide. Bins too sparse
+/// to judge count neither way, as in [`abnormal_zone`].
+fn rounding_share(means: &[Option<f64>], w: f64, dihedral_deg: f64, zone: f64) -> f64 {
     // Whole bins within `zone` (it is a whole number of them as `abnormal_zone` measures it).
-    let bins = ((zone / w + 1e-9).floor() as usize).min(sum.len());
-    let mean = |b: usize| sum[b] / cnt[b] as f64 - level((b as f64 + 0.5) * w);
+    let bins = ((zone / w + 1e-9).floor() as usize).min(means.len());
     for nb in (1..=bins).rev() {
         let t = nb as f64 * w;
-        let (seen, rounding) = (0..nb)
-            .filter(|&b| cnt[b] >= 5)
-            .fold((0.0, 0.0), |(s, r), b| {
+        let (seen, rounding) = means[..nb]
+            .iter()
+            .enumerate()
+            .filter_map(|(b, m)| m.map(|m| (b, m)))
+            .fold((0.0, 0.0), |(s, r), (b, m)| {
                 (
-                    s + mean(b).max(0.0),
+                    s + m.max(0.0),
                     r + rounding_bin_mean(t, dihedral_deg, b as f64 * w, w),
                 )
             });
@@ -1762,13 +1772,25 @@ mod tests {
         ((0..n).map(|b| 100.0 * mean(b)).collect(), vec![100; n])
     }
 
+    /// [`rounding_share`] of the bins' sums and counts about `level`, as `abnormal_zone` reads
+    /// them.
+    fn share(
+        (sum, cnt): (&[f64], &[usize]),
+        level: impl Fn(f64) -> f64,
+        w: f64,
+        deg: f64,
+        zone: f64,
+    ) -> f64 {
+        rounding_share(&bin_means(sum, cnt, &level, w), w, deg, zone)
+    }
+
     #[test]
     fn a_rounding_keeps_its_zone() {
         let w = 0.25;
         for deg in [30.0, 90.0, 135.0] {
             for t0 in [0.5, 1.0, 2.0] {
                 let (sum, cnt) = bins_of(16, |b| fillet_bin_mean(t0, deg, w, b));
-                let t = rounding_share(&sum, &cnt, &|_| 0.0, w, deg, t0);
+                let t = share((&sum, &cnt), |_| 0.0, w, deg, t0);
                 assert!((t - t0).abs() < 1e-9, "{deg}°, t0 {t0}: zone {t}");
                 // A bin near the edge below its face (the other face's points there) does
                 // not cancel the rest, where the rounding spans several bins.
@@ -1777,7 +1799,7 @@ mod tests {
                 }
                 let (mut sum, cnt) = (sum, cnt);
                 sum[0] = -100.0 * fillet_bin_mean(t0, deg, w, 0);
-                let t = rounding_share(&sum, &cnt, &|_| 0.0, w, deg, t0);
+                let t = share((&sum, &cnt), |_| 0.0, w, deg, t0);
                 assert!(t >= t0 - w - 1e-9, "{deg}°, t0 {t0}, bin 0 below: zone {t}");
             }
         }
@@ -1792,7 +1814,7 @@ mod tests {
         for deg in [60.0, 90.0, 135.0] {
             let t0 = 0.5;
             let (sum, cnt) = bins_of(16, |b| fillet_bin_mean(t0, deg, w, b) + 0.03);
-            let t = rounding_share(&sum, &cnt, &|_| 0.0, w, deg, 3.25);
+            let t = share((&sum, &cnt), |_| 0.0, w, deg, 3.25);
             assert!(
                 t >= t0 && t <= 3.0 * t0,
                 "{deg}°: zone {t} for a rounding of {t0}"
@@ -1802,11 +1824,11 @@ mod tests {
         let (sum, cnt) = bins_of(16, |b| {
             fillet_bin_mean(0.5, 90.0, w, b) + 0.1 * (b as f64 + 0.5) * w
         });
-        let t = rounding_share(&sum, &cnt, &|s| 0.1 * s, w, 90.0, 3.25);
+        let t = share((&sum, &cnt), |s| 0.1 * s, w, 90.0, 3.25);
         assert!((t - 0.5).abs() < 1e-9, "zone {t}");
         // Nothing measured, nothing kept; bins too sparse to judge keep the zone.
-        assert_eq!(rounding_share(&sum, &cnt, &|s| 0.1 * s, w, 90.0, 0.0), 0.0);
-        let t = rounding_share(&[0.0; 8], &[2; 8], &|_| 0.0, w, 90.0, 1.0);
+        assert_eq!(share((&sum, &cnt), |s| 0.1 * s, w, 90.0, 0.0), 0.0);
+        let t = share((&[0.0; 8], &[2; 8]), |_| 0.0, w, 90.0, 1.0);
         assert!((t - 1.0).abs() < 1e-9, "zone {t}");
     }
 
