@@ -365,3 +365,55 @@ fn known_slopes_steady_the_corner() {
         "mean corner error {shared} with the shared slopes, {own} with each profile's own"
     );
 }
+
+/// A profile with one arm quiet and one noisy: two profiles' arms merged, each with its
+/// own noise (the first `n` points of `quiet` on one side, of `noisy` on the other).
+fn two_noise_profile(sigma_quiet: f64, sigma_noisy: f64, seed: u64) -> Vec<[f64; 2]> {
+    let n = 40;
+    let quiet = profile([10.0, 10.0], -45.0, -135.0, n, 0.25, sigma_quiet, 0.0, seed);
+    let noisy = profile(
+        [10.0, 10.0],
+        -45.0,
+        -135.0,
+        n,
+        0.25,
+        sigma_noisy,
+        0.0,
+        seed + 1,
+    );
+    // Side by the sign of x - 10: the quiet arm goes right, the noisy arm left.
+    let mut pts: Vec<[f64; 2]> = quiet.into_iter().filter(|p| p[0] > 10.0).collect();
+    pts.extend(noisy.into_iter().filter(|p| p[0] <= 10.0));
+    pts
+}
+
+/// Issue 17: a slab whose faces scatter 25 times apart (one face seen nearly edge-on, its
+/// noise along the rays), told the quiet face's noise, as the pipeline tells every slab the
+/// noise measured around its edge. The noisy arm is propagated and fitted at its own noise:
+/// at the told one its propagation stopped within a few points, and the rest of the arm
+/// went to the corner region, whose spread the edge then read as a wide abnormal zone.
+#[test]
+fn issue17_an_arm_far_noisier_than_told_keeps_its_points() {
+    let mut params = FitParams::default();
+    params.propagation.noise = Some(0.002);
+    let mut worst_region = 0;
+    let mut worst_error: f64 = 0.0;
+    for seed in 0..20u64 {
+        let pts = two_noise_profile(0.002, 0.05, 100 + 2 * seed);
+        let f = fit_profile_2d(
+            &pts,
+            [10.1, 9.9],
+            &params,
+            &mut SmallRng::seed_from_u64(seed),
+        )
+        .unwrap();
+        worst_region = worst_region.max(f.corner_region.len());
+        worst_error = worst_error.max(dist(f.searches.pso.point, [10.0, 10.0]));
+    }
+    // Of 80 points, the corner region of a sharp corner: a few around it.
+    assert!(
+        worst_region <= 12,
+        "corner region up to {worst_region} points"
+    );
+    assert!(worst_error < 0.1, "corner off by up to {worst_error}");
+}

@@ -36,11 +36,15 @@ use super::method::{
 use super::objective::FixedSlopes2;
 use super::params::FitParams;
 use super::problem::{Frame, Problem};
-use super::propagate::propagate_run;
+use super::propagate::{line_residuals, noise_from_residuals, propagate_run};
 use crate::geometry::{dot, finite, norm2, scale, sub, unit};
 use crate::{Error, Result};
 
 const WHAT: &str = "2D profile fit";
+
+/// A profile's arm is propagated and fitted at its own noise when that is more than this
+/// many times the told one (see `prepare_profile_2d_zone`).
+const SIDE_NOISE_RATIO: f64 = 2.0;
 
 /// The 2D specifics of the shared method (see `method`): two lines, the objective of Eq. 11.
 #[derive(Clone, Copy, Debug)]
@@ -70,7 +74,8 @@ pub struct ProfileFit {
     pub d: usize,
     /// The local fits L2 and L4, directions pointing away from the corner.
     pub local: [Line2; 2],
-    /// Noise level σ used by the propagation (given or estimated), input units.
+    /// Noise level σ used by the propagation (given or estimated), input units. An arm
+    /// scattering more than twice a given σ is propagated at its own instead.
     pub noise: f64,
     /// Scheme 1's, the PSO's and the exact corner.
     pub searches: Searches<2>,
@@ -176,12 +181,29 @@ pub fn prepare_profile_2d_zone(
     let arms = s.arm.iter().map(Vec::as_slice);
     let sigma = method::noise(params, &frame, &s.fit.loc, arms, &mut s.fit.res)
         .max(known.noise_floor / frame.unit);
-    let ends = propagate_from_both_ends(s, sigma, params, &arm_line);
+    // A told noise is the surface's around the edge; where one face is seen nearly edge-on,
+    // its noise runs along the rays and the edge reads the quieter face's. Each arm's far
+    // half then scatters well beyond it, and that arm is propagated and fitted at its own.
+    let side_sigma: [f64; 2] = std::array::from_fn(|k| {
+        if params.propagation.noise.is_none() {
+            return sigma;
+        }
+        let arm = &s.arm[k];
+        s.fit.res.clear();
+        line_residuals(&s.fit.loc, &arm[..arm.len().div_ceil(2)], &mut s.fit.res);
+        let own = noise_from_residuals::<2>(&mut s.fit.res).unwrap_or(0.0);
+        if own > SIDE_NOISE_RATIO * sigma {
+            own
+        } else {
+            sigma
+        }
+    });
+    let ends = propagate_from_both_ends(s, side_sigma, params, &arm_line);
     let (s1_end, s2_start) = pull_back_from_zone(&s.fit.loc, &s.poly, known.zone, &frame, ends);
     check_side_sizes([s1_end, s.poly.len() - s2_start], params.min_side())?;
     record_sides(s, s1_end, s2_start, out);
 
-    fit_local_lines(s, &arm_line, known, params, sigma, &out.sides)?;
+    fit_local_lines(s, &arm_line, known, params, side_sigma, &out.sides)?;
     assign_points(&mut s.fit, out, params.include_corner_region);
     // The candidates' seeds: the corner region, C and D.
     s.fit.cand_idx.clear();
@@ -400,7 +422,7 @@ fn assign_to_arms(s: &mut ProfileScratch, arm_line: &[Line2; 2]) {
 /// swallow the other side. Returns where side 1 ends and side 2 starts in `s.poly`.
 fn propagate_from_both_ends(
     s: &mut ProfileScratch,
-    sigma: f64,
+    sigma: [f64; 2],
     params: &FitParams,
     arm_line: &[Line2; 2],
 ) -> (usize, usize) {
@@ -415,7 +437,7 @@ fn propagate_from_both_ends(
     let a = propagate_run(
         loc,
         &s.poly,
-        sigma,
+        sigma[0],
         &params.propagation,
         Some(arm_line[0].direction),
     )
@@ -423,7 +445,7 @@ fn propagate_from_both_ends(
     let b = propagate_run(
         loc,
         &s.rev,
-        sigma,
+        sigma[1],
         &params.propagation,
         Some(arm_line[1].direction),
     )
@@ -493,7 +515,7 @@ fn fit_local_lines(
     arm_line: &[Line2; 2],
     known: &ProfileKnown,
     params: &FitParams,
-    sigma: f64,
+    sigma: [f64; 2],
     sides: &[Vec<usize>; 2],
 ) -> Result<()> {
     s.fit.lines.clear();
@@ -504,7 +526,14 @@ fn fit_local_lines(
                 let d = nearest_face(&slopes, away)?;
                 line_through_centroid(&s.fit.loc, &sides[k], d).oriented(away)
             }
-            None => local_fit(&s.fit.loc, &sides[k], params, sigma, &mut s.fit.buf, away)?,
+            None => local_fit(
+                &s.fit.loc,
+                &sides[k],
+                params,
+                sigma[k],
+                &mut s.fit.buf,
+                away,
+            )?,
         };
         s.fit.lines.push(line);
     }
