@@ -223,15 +223,23 @@ pub(crate) fn noise<'a, const D: usize>(
 ) -> f64 {
     let sigma = match params.propagation.noise {
         Some(sg) => sg / frame.unit,
-        None => {
-            res.clear();
-            for run in runs {
-                line_residuals(loc, &run[..run.len().div_ceil(2)], res);
-            }
-            noise_from_residuals::<D>(res).unwrap_or(0.0)
-        }
+        None => far_half_noise(loc, runs, res),
     };
     sigma.max(1e-12)
+}
+
+/// The σ of the far halves of `runs` (each ordered far end first) against their own lines,
+/// in the units of `loc`; 0 when they hold too few points. `res` is scratch.
+pub(crate) fn far_half_noise<'a, const D: usize>(
+    loc: &[[f64; D]],
+    runs: impl Iterator<Item = &'a [usize]>,
+    res: &mut Vec<f64>,
+) -> f64 {
+    res.clear();
+    for run in runs {
+        line_residuals(loc, &run[..run.len().div_ceil(2)], res);
+    }
+    noise_from_residuals::<D>(res).unwrap_or(0.0)
 }
 
 /// The local fit of one side's accepted points `run` (the paper's L2 / L4, in the form

@@ -36,7 +36,7 @@ use super::method::{
 use super::objective::FixedSlopes2;
 use super::params::FitParams;
 use super::problem::{Frame, Problem};
-use super::propagate::{line_residuals, noise_from_residuals, propagate_run};
+use super::propagate::propagate_run;
 use crate::geometry::{dot, finite, norm2, scale, sub, unit};
 use crate::{Error, Result};
 
@@ -188,10 +188,8 @@ pub fn prepare_profile_2d_zone(
         if params.propagation.noise.is_none() {
             return sigma;
         }
-        let arm = &s.arm[k];
-        s.fit.res.clear();
-        line_residuals(&s.fit.loc, &arm[..arm.len().div_ceil(2)], &mut s.fit.res);
-        let own = noise_from_residuals::<2>(&mut s.fit.res).unwrap_or(0.0);
+        let arm = std::iter::once(s.arm[k].as_slice());
+        let own = method::far_half_noise(&s.fit.loc, arm, &mut s.fit.res);
         if own > SIDE_NOISE_RATIO * sigma {
             own
         } else {
