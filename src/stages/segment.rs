@@ -1122,22 +1122,22 @@ fn find_vertices(mut runs: Vec<Run>, r: f64, params: &SegmentParams) -> (Vec<Run
     for &(_, a, b) in &pairs {
         groups.entry(whole.find(a)).or_default().1.push((a, b));
     }
-    let mut uf = UnionFind::new(ends.len());
-    for (members, group_pairs) in groups.values() {
-        let split = (members.len() > 2 && !meet(members, 2.0 * gap))
-            .then(|| split_vertex(members, group_pairs, |m: &[usize]| meet(m, gap)))
-            .flatten();
-        let chosen = split.as_deref().unwrap_or(group_pairs);
-        for &(a, b) in chosen {
-            uf.union(a, b);
+    // The ends of each vertex: a group whole, or its parts where it splits, in the order of
+    // their first ends.
+    let mut vertex_ends: Vec<Vec<usize>> = Vec::new();
+    for (members, group_pairs) in groups.into_values() {
+        if members.len() > 2
+            && !meet(&members, 2.0 * gap)
+            && let Some(parts) = split_vertex(&members, &group_pairs, |m: &[usize]| meet(m, gap))
+        {
+            vertex_ends.extend(parts);
+            continue;
         }
+        vertex_ends.push(members);
     }
-    let mut groups: std::collections::BTreeMap<usize, Vec<usize>> = Default::default();
-    for e in 0..ends.len() {
-        groups.entry(uf.find(e)).or_default().push(e);
-    }
+    vertex_ends.sort_by_key(|m| m[0]);
     let mut vertices = Vec::new();
-    for (_, members) in groups {
+    for members in vertex_ends {
         if members.len() < 2 {
             continue;
         }
@@ -1174,21 +1174,19 @@ fn find_vertices(mut runs: Vec<Run>, r: f64, params: &SegmentParams) -> (Vec<Run
     (runs, vertices)
 }
 
-/// Splits a group of run ends (`members`, ids into the caller's ends) by joining the
-/// `pairs` (sorted nearest meeting first) only while `meet` accepts the joined ends; the
-/// pairs joined, or `None` when an end is left without a partner or nothing splits.
+/// Splits a group of run ends (`members`, ascending ids into the caller's ends) by joining
+/// the `pairs` (sorted nearest meeting first) only while `meet` accepts the joined ends; the
+/// parts, each ascending, or `None` when an end is left without a partner or nothing splits.
 fn split_vertex(
     members: &[usize],
     pairs: &[(usize, usize)],
     meet: impl Fn(&[usize]) -> bool,
-) -> Option<Vec<(usize, usize)>> {
+) -> Option<Vec<Vec<usize>>> {
     let local = |e: usize| members.binary_search(&e).ok();
     let mut uf = UnionFind::new(members.len());
     let mut parts: Vec<Vec<usize>> = members.iter().map(|&e| vec![e]).collect();
-    let mut joined = Vec::new();
     for &(a, b) in pairs {
-        let (la, lb) = (local(a)?, local(b)?);
-        let (ra, rb) = (uf.find(la), uf.find(lb));
+        let (ra, rb) = (uf.find(local(a)?), uf.find(local(b)?));
         if ra == rb {
             continue;
         }
@@ -1200,10 +1198,15 @@ fn split_vertex(
         let root = uf.find(ra);
         parts[root] = both;
         parts[if root == ra { rb } else { ra }].clear();
-        joined.push((a, b));
     }
-    let sizes: Vec<usize> = parts.iter().map(Vec::len).filter(|&n| n > 0).collect();
-    (sizes.len() > 1 && sizes.iter().all(|&n| n >= 2)).then_some(joined)
+    parts.retain(|p| !p.is_empty());
+    if parts.len() < 2 || parts.iter().any(|p| p.len() < 2) {
+        return None;
+    }
+    for p in &mut parts {
+        p.sort_unstable();
+    }
+    Some(parts)
 }
 
 struct UnionFind {
