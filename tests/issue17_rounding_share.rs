@@ -15,40 +15,13 @@
 
 mod run_common;
 
-use run_common::bench_random_draws;
-
-/// Checks one case's rectification: at most 20 points away from edges moved (`away_before`
-/// before the rule), and rectified / raw at most `max_ratio` (`ratio_before` before): the
-/// zones still reach over the roundings.
-fn assert_rectified(
-    case: &serde_json::Value,
-    away_before: usize,
-    max_ratio: f64,
-    ratio_before: f64,
-) {
-    let name = &case["name"];
-    let away = case["rectify"]["away_moved"].as_u64().unwrap();
-    assert!(
-        away <= 20,
-        "{name}: {away} points away from edges moved ({away_before} before)"
-    );
-    let ratio = case["rectify"]["ratio"].as_f64().unwrap();
-    assert!(
-        ratio <= max_ratio,
-        "{name}: rectified / raw {ratio:.3} ({ratio_before} before)"
-    );
-}
+use run_common::{assert_passes, assert_rectified, bench_random_draws};
 
 #[test]
 fn issue17_faint_deviations_are_no_wide_rounding() {
     let cases = bench_random_draws(1, &[("r001", 242_479), ("r090", 135_177)]);
     let (r001, r090) = (&cases[0], &cases[1]);
-    assert_rectified(r090, 1_564, 0.33, 0.293);
-    assert_rectified(r001, 270, 0.1, 0.047);
-    assert_eq!(
-        r001["pass"].as_bool(),
-        Some(true),
-        "r001: {}",
-        r001["checks"]
-    );
+    assert_rectified(r090, (20, 1_564), (0.33, 0.293));
+    assert_rectified(r001, (20, 270), (0.1, 0.047));
+    assert_passes(r001);
 }

@@ -16,42 +16,17 @@
 
 mod run_common;
 
-use run_common::bench_random_draws;
-
-fn ratio_and_away(case: &serde_json::Value) -> (f64, u64) {
-    (
-        case["rectify"]["ratio"].as_f64().unwrap(),
-        case["rectify"]["away_moved"].as_u64().unwrap(),
-    )
-}
+use run_common::{assert_passes, assert_rectified, bench_random_draws};
 
 #[test]
 fn issue17_a_face_seen_edge_on_is_fitted_at_its_own_noise() {
     let cases = bench_random_draws(7, &[("r004", 83_490)]);
-    let (ratio, away) = ratio_and_away(&cases[0]);
-    assert!(
-        ratio <= 0.27,
-        "r004: rectified / raw {ratio:.3} (0.33 before)"
-    );
-    assert_eq!(away, 0, "r004: points away from edges moved");
-    assert_eq!(
-        cases[0]["pass"].as_bool(),
-        Some(true),
-        "r004: {}",
-        cases[0]["checks"]
-    );
+    assert_rectified(&cases[0], (0, 0), (0.27, 0.33));
+    assert_passes(&cases[0]);
 }
 
 #[test]
 fn issue17_a_structured_light_view_moves_no_face_points() {
     let cases = bench_random_draws(1, &[("r014", 193_481)]);
-    let (ratio, away) = ratio_and_away(&cases[0]);
-    assert!(
-        away <= 20,
-        "r014: {away} points away from edges moved (238 before)"
-    );
-    assert!(
-        ratio <= 0.55,
-        "r014: rectified / raw {ratio:.3} (0.725 before)"
-    );
+    assert_rectified(&cases[0], (20, 238), (0.55, 0.725));
 }

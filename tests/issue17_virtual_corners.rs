@@ -15,7 +15,7 @@
 
 mod run_common;
 
-use run_common::bench_random_draws;
+use run_common::{assert_passes, bench_random_draws};
 
 #[test]
 fn issue17_edges_beside_a_fillet_meet_at_no_corner() {
@@ -35,10 +35,5 @@ fn issue17_edges_beside_a_fillet_meet_at_no_corner() {
             corners["missed"]
         );
     }
-    assert_eq!(
-        cases[0]["pass"].as_bool(),
-        Some(true),
-        "r003: {}",
-        cases[0]["checks"]
-    );
+    assert_passes(&cases[0]);
 }

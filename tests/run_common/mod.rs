@@ -489,3 +489,35 @@ pub fn bench_random_draws(seed: u64, draws: &[(&str, u64)]) -> Vec<serde_json::V
     }
     cases
 }
+
+/// Checks a scored case's rectification: at most `max_away` points away from every edge
+/// moved (`away_before` before the change under test), and rectified / raw distance at most
+/// `max_ratio` (`ratio_before` before).
+pub fn assert_rectified(
+    case: &serde_json::Value,
+    (max_away, away_before): (u64, u64),
+    (max_ratio, ratio_before): (f64, f64),
+) {
+    let name = &case["name"];
+    let away = case["rectify"]["away_moved"].as_u64().unwrap();
+    assert!(
+        away <= max_away,
+        "{name}: {away} points away from edges moved ({away_before} before)"
+    );
+    let ratio = case["rectify"]["ratio"].as_f64().unwrap();
+    assert!(
+        ratio <= max_ratio,
+        "{name}: rectified / raw {ratio:.3} ({ratio_before} before)"
+    );
+}
+
+/// Checks that a scored case passes every check of the bench.
+pub fn assert_passes(case: &serde_json::Value) {
+    assert_eq!(
+        case["pass"].as_bool(),
+        Some(true),
+        "{}: {}",
+        case["name"],
+        case["checks"]
+    );
+}
