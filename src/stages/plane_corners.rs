@@ -1027,6 +1027,55 @@ mod tests {
         }
     }
 
+    fn face_corner(position: [f64; 3]) -> FaceCorner {
+        FaceCorner {
+            position,
+            faces: vec![0, 1, 2],
+            support: 10,
+            scale: Scale {
+                spacing: 1.0,
+                pitch: 1.0,
+                noise: 0.1,
+                radius: 4.0,
+            },
+        }
+    }
+
+    fn fitted(position: [f64; 3]) -> CornerFit {
+        CornerFit {
+            vertex: 0,
+            position,
+            scheme1: position,
+            exact: position,
+            errors: [0.0; 3],
+            edges: vec![0, 1, 2],
+        }
+    }
+
+    /// Issue 17: a fitted corner took the position of every plane corner within two radii in
+    /// turn, so of a small hole's rim corner and the part's outer corner beside it (1.4 radii
+    /// apart) only the last placed was reported. Each fitted corner now takes one plane
+    /// corner, the nearest first come; another is a corner of its own, unless within a radius
+    /// of one placed already (the same corner).
+    #[test]
+    fn issue17_a_fitted_corner_takes_one_plane_corner() {
+        let mut corners = vec![fitted([0.0, 0.0, 0.0]), fitted([100.0, 0.0, 0.0])];
+        let found = [
+            face_corner([1.0, 0.0, 0.0]),
+            face_corner([6.0, 0.0, 0.0]),
+            face_corner([1.5, 0.5, 0.0]),
+            face_corner([50.0, 0.0, 0.0]),
+        ];
+        let index = place_corners(&found, &mut corners);
+        assert_eq!(index, vec![0, 2, 0, 3]);
+        assert_eq!(corners.len(), 4);
+        assert_eq!(corners[0].position, [1.0, 0.0, 0.0]);
+        assert_eq!(corners[1].position, [100.0, 0.0, 0.0]);
+        assert_eq!(corners[2].position, [6.0, 0.0, 0.0]);
+        assert!(corners[2].errors.iter().all(|e| e.is_nan()));
+        assert_eq!(corners[3].position, [50.0, 0.0, 0.0]);
+    }
+
     #[test]
     fn three_planes_meet_in_one_point_and_parallel_ones_nowhere() {
         let p = [
