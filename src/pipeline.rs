@@ -336,7 +336,7 @@ pub fn process(cloud: Cloud, settings: &Settings, clock: &mut impl LapClock) -> 
     plane_edges.extend(more);
     let mut plane_found = plane_found;
     pair_edges::meeting_corners(&planar, &mut plane_found, &mut plane_edges);
-    let corner_of_plane = plane_corners::place_corners(&plane_found, &mut corner_list);
+    let corner_of_plane = plane_corners::place_corners(&planar, &plane_found, &mut corner_list);
     let mut geometry = corners::edge_geometry(&segments, &fits, &corner_list, &corner_of_vertex);
     let new_edges =
         plane_corners::place_edges(&plane_edges, &plane_found, &corner_of_plane, &mut geometry);

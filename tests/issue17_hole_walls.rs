@@ -15,6 +15,13 @@
 //!   near it. `stages::plane_corners` now keeps the one whose faces come nearer it, keeps
 //!   both when they are a radius apart, and gives each fitted corner one plane corner.
 //!
+//! - On scan lines that run along a small hole's walls, the walls are sampled sparsely and
+//!   their radius is several times the rest's (27 h on seed 2's r042): the next wall lies
+//!   within a radius along a rim, and its points, off both planes of the rim's faces, made
+//!   the scan "leave" every rim edge; within two radii of the hole's wall edges lie its
+//!   other walls, whose points kept a plane edge's rectified zone open 21 h out. Points of
+//!   a third planar face now count for neither.
+//!
 //! Run as the real binary on draws of `bench --random 100`, scored by the bench.
 
 mod run_common;
@@ -71,4 +78,29 @@ fn issue17_corners_of_a_small_hole_are_where_adjacent_walls_meet() {
         "r094: corner recall {recall:.3} (0.857 before), precision {precision:.3}: {c}"
     );
     assert_passes(&cases[0]);
+}
+
+#[test]
+fn issue17_rims_of_sparsely_scanned_hole_walls_are_followed() {
+    // r042 of seed 2: 129,228 points in scan lines 3.7 steps apart, sigma 0.015 spacing,
+    // a pentagonal and a triangular hole 240 h deep. Before: 19 of 40 corners missed, each
+    // refused as "the scan leaves the edge" of the top and a wall, and 588 points away from
+    // edges moved (1,844 once the rims were followed, before the zones left third faces out).
+    let cases = bench_random_draws(2, &[("r042", 129_228)]);
+    let (recall, precision, c) = corners(&cases[0]);
+    assert!(
+        recall >= 0.8,
+        "r042: corner recall {recall:.3} (0.525 before), missed {}",
+        c["missed"]
+    );
+    assert!(
+        precision >= 0.95,
+        "r042: corner precision {precision:.3}, spurious {}",
+        c["spurious"]
+    );
+    let away = cases[0]["rectify"]["away_moved"].as_u64().unwrap();
+    assert_eq!(
+        away, 0,
+        "r042: {away} points away from edges moved (588 before)"
+    );
 }

@@ -370,7 +370,7 @@ fn pair_stretches(
                     near[1] |= l == pair[1];
                 }
             });
-            near[0] && near[1] && hugs(grid, q, d, [&pa, &pb], gap, step)
+            near[0] && near[1] && hugs(grid, q, d, [&pa, &pb], gap, step, |_| false)
         })
         .collect();
     let max_gap_steps = (MAX_GAP * r / step).ceil() as usize;

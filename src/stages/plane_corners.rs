@@ -398,7 +398,24 @@ fn unfollowed_edge(
         let gap = hug_gap(rounding, -dot(na, nb), &noisier);
         let hugged = HUG_AT.iter().all(|&t| {
             let q = axpy(corner, t * r, d);
-            hugs(grid, q, d, [&planes[ia], &planes[ib]], gap, scale.spacing)
+            // Points of a third planar face do not count: they are where a short edge
+            // ends, not a rounding the scan takes (seed 2's r042, scan lines along a small
+            // hole's walls: their radius is 27 h and the next wall lies a radius along its
+            // 29 h rims). A fillet's points are on no face or on its own strips, and its
+            // line keeps them farther than the gap: no point near, not followed.
+            let third = |j: u32| {
+                let l = faces.label[j as usize];
+                l != NO_FACE && l != triple[ia] && l != triple[ib]
+            };
+            hugs(
+                grid,
+                q,
+                d,
+                [&planes[ia], &planes[ib]],
+                gap,
+                scale.spacing,
+                third,
+            )
         });
         // A fillet a little wider than the widest rounding keeps the scan off the planes'
         // line by less than `hug_gap` allows each point (its noise sigmas), but the median
@@ -516,7 +533,8 @@ pub(crate) fn hug_gap(rounding: f64, cos_theta: f64, scale: &Scale) -> f64 {
 /// lines may run along an edge a spacing apart and never come near the line itself; the
 /// points they put beside it lie on one face or the other. A fillet's or a chamfer's points
 /// there lie off both planes, and a rounding wider than a fillet's keeps the scan farther
-/// from the line than `gap + spacing` (no points at all).
+/// from the line than `gap + spacing` (no points at all). Points for which `third_face` holds
+/// (on a planar face other than the two) are not asked.
 pub(crate) fn hugs(
     grid: &Grid,
     q: [f64; 3],
@@ -524,12 +542,13 @@ pub(crate) fn hugs(
     planes: [&Plane; 2],
     gap: f64,
     spacing: f64,
+    third_face: impl Fn(u32) -> bool,
 ) -> bool {
     let base = planes.map(|p| p.distance(q));
     let (mut near, mut off) = (0usize, 0usize);
-    grid.for_each_within(q, gap + spacing, |_, w, _| {
+    grid.for_each_within(q, gap + spacing, |j, w, _| {
         let along = dot(w, d);
-        if along.abs() > spacing {
+        if along.abs() > spacing || third_face(j) {
             return;
         }
         let [a, b] = [0, 1].map(|k| (base[k] + dot(planes[k].normal, w)).abs());
@@ -816,44 +835,57 @@ pub fn overlaps(a: [f64; 3], b: [f64; 3], c: [f64; 3], d: [f64; 3], tolerance: f
     overlap >= 0.5 * (hi - lo).min(l)
 }
 
-/// A fitted corner this close to a plane corner, in the plane corner's radii, is the same
-/// corner.
+/// A fitted corner this close to a plane corner, in the plane corner's radii, and within
+/// `FITTED_ON_PLANES` spacings (plus `SAME_PLANE_SIGMAS` noise sigmas) of each of its
+/// faces' planes, is the same corner.
 const SAME_AS_FITTED: f64 = 2.0;
+const FITTED_ON_PLANES: f64 = 2.0;
 
 /// Puts the plane corners among the fitted ones: the nearest fitted corner within
 /// `SAME_AS_FITTED` radii that no plane corner took yet takes the plane corner's position
 /// (the planes rest on whole faces; the fit on its edges' ends); a plane corner with none
 /// near is added, without fit errors. Returns each plane corner's index in `corners`.
-pub fn place_corners(found: &[FaceCorner], corners: &mut Vec<CornerFit>) -> Vec<usize> {
+pub fn place_corners(
+    faces: &Faces,
+    found: &[FaceCorner],
+    corners: &mut Vec<CornerFit>,
+) -> Vec<usize> {
     let mut index = Vec::with_capacity(found.len());
     // A fitted corner takes one plane corner's position: two plane corners near one fitted
     // corner (a small hole's rim corner and the outer corner beside it) are two corners.
     // (A plane corner within `APART_CORNER` radii of one placed already is that corner.)
     let mut placed = vec![false; corners.len()];
     for fc in found {
-        let nearest = |free: bool| {
-            corners
+        // A fitted corner of the same corner lies on its faces' planes; one that lies a
+        // radius along an edge line from it is another corner, whose edges would be drawn to
+        // this one (on scan lines along small walls the radius is 27 h: seed 7's r011, a
+        // fitted corner 58 h off, its edges 20–50 h off the part's).
+        let tolerance = SAME_PLANE_SIGMAS * fc.scale.noise + FITTED_ON_PLANES * fc.scale.spacing;
+        let on_planes = |p: [f64; 3]| {
+            fc.faces
                 .iter()
-                .enumerate()
-                .filter(|&(i, _)| !(free && placed[i]))
-                .map(|(i, c)| (norm(sub(c.position, fc.position)), i))
-                .filter(|(d, _)| *d < SAME_AS_FITTED * fc.scale.radius)
-                .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)))
+                .all(|&f| faces.planes[f as usize].distance(p).abs() <= tolerance)
         };
-        if let Some((d, i)) = nearest(false)
-            && placed[i]
-            && d < APART_CORNER * fc.scale.radius
-        {
-            index.push(i);
-            continue;
-        }
-        match nearest(true) {
-            Some((_, i)) => {
+        let nearest = corners
+            .iter()
+            .enumerate()
+            .map(|(i, c)| (norm(sub(c.position, fc.position)), i))
+            .filter(|&(d, i)| {
+                d < SAME_AS_FITTED * fc.scale.radius
+                    && (placed[i] || on_planes(corners[i].position))
+            })
+            .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        // Only the nearest: a fitted corner farther than another is another corner's, and
+        // moving it would carry its edges' ends there (seed 7's r011: fitted edges 20–35 h
+        // off the part's edges).
+        match nearest {
+            Some((d, i)) if placed[i] && d < APART_CORNER * fc.scale.radius => index.push(i),
+            Some((_, i)) if !placed[i] => {
                 corners[i].position = fc.position;
                 placed[i] = true;
                 index.push(i);
             }
-            None => {
+            _ => {
                 placed.push(true);
                 index.push(corners.len());
                 corners.push(CornerFit {
@@ -1027,10 +1059,10 @@ mod tests {
         }
     }
 
-    fn face_corner(position: [f64; 3]) -> FaceCorner {
+    fn face_corner(position: [f64; 3], x_face: u32) -> FaceCorner {
         FaceCorner {
             position,
-            faces: vec![0, 1, 2],
+            faces: vec![0, 1, x_face],
             support: 10,
             scale: Scale {
                 spacing: 1.0,
@@ -1055,25 +1087,42 @@ mod tests {
     /// Issue 17: a fitted corner took the position of every plane corner within two radii in
     /// turn, so of a small hole's rim corner and the part's outer corner beside it (1.4 radii
     /// apart) only the last placed was reported. Each fitted corner now takes one plane
-    /// corner, the nearest first come; another is a corner of its own, unless within a radius
-    /// of one placed already (the same corner).
+    /// corner, the first come; another is a corner of its own, unless within a radius of one
+    /// placed already (the same corner). A plane corner takes only the fitted corner nearest
+    /// it, and only one on its faces' planes (within two spacings): one a radius along an
+    /// edge line is another corner's.
     #[test]
     fn issue17_a_fitted_corner_takes_one_plane_corner() {
-        let mut corners = vec![fitted([0.0, 0.0, 0.0]), fitted([100.0, 0.0, 0.0])];
-        let found = [
-            face_corner([1.0, 0.0, 0.0]),
-            face_corner([6.0, 0.0, 0.0]),
-            face_corner([1.5, 0.5, 0.0]),
-            face_corner([50.0, 0.0, 0.0]),
+        // Faces: y = 0, z = 0, and planes x = 1, 6, 1.5, 50, 16 (faces 2 to 6).
+        let mut planes = vec![
+            plane([0.0, 1.0, 0.0], [0.0, 0.0, 0.0]),
+            plane([0.0, 0.0, 1.0], [0.0, 0.0, 0.0]),
         ];
-        let index = place_corners(&found, &mut corners);
-        assert_eq!(index, vec![0, 2, 0, 3]);
-        assert_eq!(corners.len(), 4);
+        for x in [1.0, 6.0, 1.5, 50.0, 16.0] {
+            planes.push(plane([1.0, 0.0, 0.0], [x, 0.0, 0.0]));
+        }
+        let faces = Faces {
+            label: Vec::new(),
+            planes,
+        };
+        let mut corners = vec![fitted([0.0, 0.0, 0.0]), fitted([13.0, 0.0, 0.0])];
+        let found = [
+            face_corner([1.0, 0.0, 0.0], 2),
+            face_corner([6.0, 0.0, 0.0], 3),
+            face_corner([1.5, 0.0, 0.0], 4),
+            face_corner([50.0, 0.0, 0.0], 5),
+            // Three from the fitted corner at 13, nearest of all, but off its plane x = 16.
+            face_corner([16.0, 0.0, 0.0], 6),
+        ];
+        let index = place_corners(&faces, &found, &mut corners);
+        assert_eq!(index, vec![0, 2, 0, 3, 4]);
+        assert_eq!(corners.len(), 5);
         assert_eq!(corners[0].position, [1.0, 0.0, 0.0]);
-        assert_eq!(corners[1].position, [100.0, 0.0, 0.0]);
+        assert_eq!(corners[1].position, [13.0, 0.0, 0.0]);
         assert_eq!(corners[2].position, [6.0, 0.0, 0.0]);
         assert!(corners[2].errors.iter().all(|e| e.is_nan()));
         assert_eq!(corners[3].position, [50.0, 0.0, 0.0]);
+        assert_eq!(corners[4].position, [16.0, 0.0, 0.0]);
     }
 
     #[test]

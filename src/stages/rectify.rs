@@ -19,7 +19,7 @@ use crate::geometry::{add, cross, dot, norm, point_segment, sub};
 use crate::neighbours::Grid;
 use crate::stages::corners::{CornerFit, EdgeGeometry};
 use crate::stages::edges::{EdgeFit, EdgeResult, Surface, mean_faces};
-use crate::stages::faces::Faces;
+use crate::stages::faces::{Faces, NO_FACE};
 use crate::stages::features::Scale;
 use crate::stages::plane_corners::FaceEdge;
 
@@ -223,9 +223,17 @@ pub fn rectify_plane_edges(
         let d = seg.map(|x| x / length);
         // (id, along the faces, target on the traces, distance to it)
         let mut near: Vec<(u32, f64, [f64; 3], f64)> = Vec::new();
+        // Points of a third face are no part of this edge's zone: within two radii of a
+        // small hole's wall edge lie the hole's other walls, and their points, off both
+        // traces, kept the zone open 21 h out (seed 2's r042, scan lines along the walls:
+        // a radius of 27 h there).
+        let third = |i: usize| {
+            let l = faces.label[i];
+            l != NO_FACE && !e.faces.contains(&l)
+        };
         grid.for_each_near_segment(e.start, e.end, 2.0 * sc.radius, |i| {
             let iu = i as usize;
-            if !candidate[iu] || out.moved[iu] {
+            if !candidate[iu] || out.moved[iu] || third(iu) {
                 return;
             }
             let p = positions[iu];
