@@ -68,9 +68,50 @@ pub fn pca_from_moments(m: &[f64; 10]) -> Option<LocalPca> {
     })
 }
 
+/// Σ ((d − d̄) · a)² from raw moments [n, Σx, …, Σzz]: the offsets' sum of squared deviations
+/// along the unit direction `a` (n times their variance along it); 0 without offsets.
+pub fn spread_along(m: &[f64; 10], a: [f64; 3]) -> f64 {
+    let n = m[0];
+    if n <= 0.0 {
+        return 0.0;
+    }
+    let second = a[0] * a[0] * m[4]
+        + 2.0 * a[0] * a[1] * m[5]
+        + 2.0 * a[0] * a[2] * m[6]
+        + a[1] * a[1] * m[7]
+        + 2.0 * a[1] * a[2] * m[8]
+        + a[2] * a[2] * m[9];
+    let first = a[0] * m[1] + a[1] * m[2] + a[2] * m[3];
+    (second - first * first / n).max(0.0)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn spread_along_is_the_sum_of_squared_deviations_along_the_direction() {
+        let pts = [
+            [1.0, 2.0, 3.0],
+            [4.0, -1.0, 0.5],
+            [-2.0, 0.0, 7.0],
+            [0.3, 5.0, -1.0],
+        ];
+        let mut m = [0.0; 10];
+        for p in pts {
+            add_moments(&mut m, p);
+        }
+        let l = (1.0f64 + 4.0 + 0.25).sqrt();
+        let a = [1.0 / l, -2.0 / l, 0.5 / l];
+        let x: Vec<f64> = pts
+            .iter()
+            .map(|p| p[0] * a[0] + p[1] * a[1] + p[2] * a[2])
+            .collect();
+        let mean = x.iter().sum::<f64>() / x.len() as f64;
+        let brute: f64 = x.iter().map(|v| (v - mean) * (v - mean)).sum();
+        assert!((spread_along(&m, a) - brute).abs() < 1e-12 * brute.max(1.0));
+        assert_eq!(spread_along(&[0.0; 10], a), 0.0);
+    }
 
     #[test]
     fn pca_needs_three_points() {

@@ -41,7 +41,7 @@ use std::collections::VecDeque;
 
 use rayon::prelude::*;
 
-use crate::geometry::moments::{add_moments, pca_from_moments};
+use crate::geometry::moments::{add_moments, pca_from_moments, spread_along};
 use crate::geometry::{dot, sub};
 use crate::neighbours::Grid;
 use crate::stages::features::{Features, LocalScale, Scale};
@@ -733,18 +733,12 @@ fn folds(positions: &[[f64; 3]], ids: &[u32], origin: [f64; 3], plane: &Plane) -
     };
     for &axis in axes {
         let mut halves = [[0.0; 10]; 2];
-        // Per half: count, sum and sum of squares of the position along the axis.
-        let mut along_moments = [[0.0; 3]; 2];
         let mut spread = 0.0;
         for &i in ids {
             let d = sub(positions[i as usize], origin);
             let along = dot(sub(positions[i as usize], plane.centroid), axis);
             spread += along * along;
-            let half = usize::from(along > 0.0);
-            add_moments(&mut halves[half], d);
-            along_moments[half][0] += 1.0;
-            along_moments[half][1] += along;
-            along_moments[half][2] += along * along;
+            add_moments(&mut halves[usize::from(along > 0.0)], d);
         }
         // Half-width of a uniform strip: √3 × the RMS extent.
         let width = (3.0 * spread / ids.len() as f64).sqrt();
@@ -763,14 +757,10 @@ fn folds(positions: &[[f64; 3]], ids: &[u32], origin: [f64; 3], plane: &Plane) -
         // of a least-squares slope). On a small face at high noise (a hole's wall a few
         // radii wide, sigma 0.3 spacing) that is a few degrees, more than a flat face's
         // fixed limit; a fold must stand out of it by `FOLD_SIGMAS`.
-        let spread_of = |m: &[f64; 3]| {
-            if m[0] > 0.0 {
-                m[2] - m[1] * m[1] / m[0]
-            } else {
-                0.0
-            }
-        };
-        let (sa, sb) = (spread_of(&along_moments[0]), spread_of(&along_moments[1]));
+        let (sa, sb) = (
+            spread_along(&halves[0], axis),
+            spread_along(&halves[1], axis),
+        );
         let chance = if sa > 0.0 && sb > 0.0 {
             FOLD_SIGMAS * plane.noise * (1.0 / sa + 1.0 / sb).sqrt()
         } else {
