@@ -124,6 +124,14 @@ impl Faces {
         retain_planes(&mut self.planes, &mut self.label, keep);
     }
 
+    /// Whether point `i` lies on a planar face other than the two of `pair`: at an edge of
+    /// those two, such a point is where the edge ends or another face passes, not part of the
+    /// edge.
+    pub fn on_other_face(&self, i: usize, pair: [u32; 2]) -> bool {
+        let l = self.label[i];
+        l != NO_FACE && !pair.contains(&l)
+    }
+
     /// The points of each face, by id.
     pub fn members(&self) -> Vec<Vec<u32>> {
         let mut m = vec![Vec::new(); self.planes.len()];

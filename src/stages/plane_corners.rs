@@ -220,9 +220,7 @@ pub fn face_corners(
         // triples agree.
         let through = |k: &FaceCorner, c: &FaceCorner| {
             let tol = SAME_PLANE_SIGMAS * k.scale.noise + SAME_PLANE_SLACK * k.scale.spacing;
-            c.faces
-                .iter()
-                .all(|&f| faces.planes[f as usize].distance(k.position).abs() <= tol)
+            on_planes(faces, &c.faces, k.position, tol)
         };
         let same = kept.iter_mut().find(|(k, _)| {
             norm(sub(k.position, c.position)) < SAME_CORNER * k.scale.radius.max(c.scale.radius)
@@ -278,6 +276,12 @@ pub fn face_corners(
         }
     }
     kept
+}
+
+/// Whether every plane of `ids` passes within `tolerance` of `p`.
+fn on_planes(faces: &Faces, ids: &[u32], p: [f64; 3], tolerance: f64) -> bool {
+    ids.iter()
+        .all(|&f| faces.planes[f as usize].distance(p).abs() <= tolerance)
 }
 
 /// The edge candidates that name faces, for the plane corners and the pair edges: every
@@ -396,17 +400,14 @@ fn unfollowed_edge(
             ..*scale
         };
         let gap = hug_gap(rounding, -dot(na, nb), &noisier);
+        // Points of a third planar face do not count: they are where a short edge ends, not
+        // a rounding the scan takes (seed 2's r042, scan lines along a small hole's walls:
+        // their radius is 27 h and the next wall lies a radius along its 29 h rims). A
+        // fillet's points are on no face or on its own strips, and its line keeps them
+        // farther than the gap: no point near, not followed.
+        let third = |j: u32| faces.on_other_face(j as usize, [triple[ia], triple[ib]]);
         let hugged = HUG_AT.iter().all(|&t| {
             let q = axpy(corner, t * r, d);
-            // Points of a third planar face do not count: they are where a short edge
-            // ends, not a rounding the scan takes (seed 2's r042, scan lines along a small
-            // hole's walls: their radius is 27 h and the next wall lies a radius along its
-            // 29 h rims). A fillet's points are on no face or on its own strips, and its
-            // line keeps them farther than the gap: no point near, not followed.
-            let third = |j: u32| {
-                let l = faces.label[j as usize];
-                l != NO_FACE && l != triple[ia] && l != triple[ib]
-            };
             hugs(
                 grid,
                 q,
@@ -861,18 +862,13 @@ pub fn place_corners(
         // this one (on scan lines along small walls the radius is 27 h: seed 7's r011, a
         // fitted corner 58 h off, its edges 20–50 h off the part's).
         let tolerance = SAME_PLANE_SIGMAS * fc.scale.noise + FITTED_ON_PLANES * fc.scale.spacing;
-        let on_planes = |p: [f64; 3]| {
-            fc.faces
-                .iter()
-                .all(|&f| faces.planes[f as usize].distance(p).abs() <= tolerance)
-        };
         let nearest = corners
             .iter()
             .enumerate()
             .map(|(i, c)| (norm(sub(c.position, fc.position)), i))
             .filter(|&(d, i)| {
                 d < SAME_AS_FITTED * fc.scale.radius
-                    && (placed[i] || on_planes(corners[i].position))
+                    && (placed[i] || on_planes(faces, &fc.faces, corners[i].position, tolerance))
             })
             .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
         // Only the nearest: a fitted corner farther than another is another corner's, and

@@ -19,7 +19,7 @@ use crate::geometry::{add, cross, dot, norm, point_segment, sub};
 use crate::neighbours::Grid;
 use crate::stages::corners::{CornerFit, EdgeGeometry};
 use crate::stages::edges::{EdgeFit, EdgeResult, Surface, mean_faces};
-use crate::stages::faces::{Faces, NO_FACE};
+use crate::stages::faces::Faces;
 use crate::stages::features::Scale;
 use crate::stages::plane_corners::FaceEdge;
 
@@ -227,13 +227,9 @@ pub fn rectify_plane_edges(
         // small hole's wall edge lie the hole's other walls, and their points, off both
         // traces, kept the zone open 21 h out (seed 2's r042, scan lines along the walls:
         // a radius of 27 h there).
-        let third = |i: usize| {
-            let l = faces.label[i];
-            l != NO_FACE && !e.faces.contains(&l)
-        };
         grid.for_each_near_segment(e.start, e.end, 2.0 * sc.radius, |i| {
             let iu = i as usize;
-            if !candidate[iu] || out.moved[iu] || third(iu) {
+            if !candidate[iu] || out.moved[iu] || faces.on_other_face(iu, e.faces) {
                 return;
             }
             let p = positions[iu];
