@@ -26,45 +26,17 @@
 
 mod run_common;
 
-use run_common::{assert_passes, bench_random_draws};
-
-fn corners(case: &serde_json::Value) -> (f64, f64, &serde_json::Value) {
-    let c = &case["corners"];
-    (
-        c["recall"].as_f64().unwrap(),
-        c["precision"].as_f64().unwrap(),
-        c,
-    )
-}
+use run_common::{assert_corners, assert_passes, bench_random_draws};
 
 #[test]
 fn issue17_small_hole_walls_at_high_noise_are_faces() {
-    // r025 of seed 13: 42,091 points, uniform, sigma 0.3 spacing, two pentagonal holes.
+    // r025 of seed 13: 42,091 points, uniform, sigma 0.3 spacing, two pentagonal holes
+    // (corner precision 0.929 before).
     let cases = bench_random_draws(13, &[("r025", 42_091)]);
-    let (recall, precision, c) = corners(&cases[0]);
-    assert!(
-        recall >= 0.95,
-        "r025: corner recall {recall:.3} (0.650 before), missed {}",
-        c["missed"]
-    );
-    assert!(
-        precision >= 0.95,
-        "r025: corner precision {precision:.3} (0.929 before), spurious {}",
-        c["spurious"]
-    );
+    assert_corners(&cases[0], (0.95, 0.650), 0.95);
     // r067 of seed 3: 65,020 points, uniform, sigma 0.23 spacing, rounded 1.5 spacings.
     let cases = bench_random_draws(3, &[("r067", 65_020)]);
-    let (recall, precision, c) = corners(&cases[0]);
-    assert!(
-        recall >= 0.74,
-        "r067: corner recall {recall:.3} (0.625 before), missed {}",
-        c["missed"]
-    );
-    assert!(
-        precision >= 0.99,
-        "r067: corner precision {precision:.3}, spurious {}",
-        c["spurious"]
-    );
+    assert_corners(&cases[0], (0.74, 0.625), 0.99);
 }
 
 #[test]
@@ -72,11 +44,7 @@ fn issue17_corners_of_a_small_hole_are_where_adjacent_walls_meet() {
     // r094 of seed 1: 42,545 points, uniform, a pentagonal hole with rims of 5–8 spacings.
     // Before: 6 of 42 corners missed, the two walls that do not meet winning over them.
     let cases = bench_random_draws(1, &[("r094", 42_545)]);
-    let (recall, precision, c) = corners(&cases[0]);
-    assert!(
-        recall >= 0.98 && precision >= 0.99,
-        "r094: corner recall {recall:.3} (0.857 before), precision {precision:.3}: {c}"
-    );
+    assert_corners(&cases[0], (0.98, 0.857), 0.99);
     assert_passes(&cases[0]);
 }
 
@@ -87,17 +55,7 @@ fn issue17_rims_of_sparsely_scanned_hole_walls_are_followed() {
     // refused as "the scan leaves the edge" of the top and a wall, and 588 points away from
     // edges moved (1,844 once the rims were followed, before the zones left third faces out).
     let cases = bench_random_draws(2, &[("r042", 129_228)]);
-    let (recall, precision, c) = corners(&cases[0]);
-    assert!(
-        recall >= 0.8,
-        "r042: corner recall {recall:.3} (0.525 before), missed {}",
-        c["missed"]
-    );
-    assert!(
-        precision >= 0.95,
-        "r042: corner precision {precision:.3}, spurious {}",
-        c["spurious"]
-    );
+    assert_corners(&cases[0], (0.8, 0.525), 0.95);
     let away = cases[0]["rectify"]["away_moved"].as_u64().unwrap();
     assert_eq!(
         away, 0,

@@ -14,22 +14,10 @@
 
 mod run_common;
 
-use run_common::bench_random_draws;
+use run_common::{assert_corners, bench_random_draws};
 
 #[test]
 fn issue17_a_small_holes_corners_are_not_one_vertex() {
     let cases = bench_random_draws(1, &[("r087", 145_227)]);
-    let corners = &cases[0]["corners"];
-    let recall = corners["recall"].as_f64().unwrap();
-    let precision = corners["precision"].as_f64().unwrap();
-    assert!(
-        recall >= 0.74,
-        "r087: corner recall {recall:.3} (0.625 before), missed {}",
-        corners["missed"]
-    );
-    assert!(
-        precision >= 0.99,
-        "r087: corner precision {precision:.3}, spurious {}",
-        corners["spurious"]
-    );
+    assert_corners(&cases[0], (0.74, 0.625), 0.99);
 }

@@ -511,6 +511,30 @@ pub fn assert_rectified(
     );
 }
 
+/// Checks a scored case's corners: recall at least `min_recall` (`recall_before` before the
+/// change under test) and precision at least `min_precision`; the messages list the missed
+/// and the spurious corners.
+pub fn assert_corners(
+    case: &serde_json::Value,
+    (min_recall, recall_before): (f64, f64),
+    min_precision: f64,
+) {
+    let name = &case["name"];
+    let c = &case["corners"];
+    let recall = c["recall"].as_f64().unwrap();
+    assert!(
+        recall >= min_recall,
+        "{name}: corner recall {recall:.3} ({recall_before} before), missed {}",
+        c["missed"]
+    );
+    let precision = c["precision"].as_f64().unwrap();
+    assert!(
+        precision >= min_precision,
+        "{name}: corner precision {precision:.3}, spurious {}",
+        c["spurious"]
+    );
+}
+
 /// Checks that a scored case passes every check of the bench.
 pub fn assert_passes(case: &serde_json::Value) {
     assert_eq!(
