@@ -27,9 +27,10 @@
 //! each of its edges is about two radii wide. A second growth runs over the candidates that
 //! no face took, with normals from neighbourhoods of `REACH` spacings, which stay on such a
 //! face from two spacings off its edges; it keeps a region as a face when it is flat within
-//! noise, does not fold, is at least `NARROW_MIN_WIDTH` spacings wide, its small normals do
-//! not turn across it (a strip along a fillet or cylinder does), and it does not continue a
-//! face it touches (a wide face's own edge band). On `bench --random 100` (seeds 1–3) this
+//! noise, does not fold, is at least `NARROW_MIN_WIDTH` pitches wide (the flat core the
+//! small normals see), its small normals do not turn across it (a strip along a fillet or
+//! cylinder does), and it does not continue a face it touches (a wide face's own edge
+//! band). On `bench --random 100` (seeds 1–3) this
 //! took corner recall from 0.890–0.899 to 0.949–0.953.
 //!
 //! Reaching the edges (`reach_edges`): last, each face takes the edge candidates next to it
@@ -521,8 +522,16 @@ fn narrow_faces(
 /// turn by 20° or more at their edges.
 const SAME_PLANE_DEGREES: f64 = 12.0;
 
-/// A narrow face is at least this many spacings wide (across its shorter axis): strips
-/// narrower are the rounding of an edge, not a face of the part.
+/// A narrow face's flat core (the points whose small neighbourhoods stay on it) is at least
+/// this many pitches wide across its shorter axis (the pitch: the finest step of the
+/// sampling, the spacing on uniform scans, the step along the lines of a line scan): a strip
+/// narrower is the arc of a rounding, not a face of the part. The core is narrower than the
+/// face by about twice `REACH` spacings (the small neighbourhoods nearer its edges reach over
+/// them). On scan lines the spacing is the gap between the lines, and the small faces of a
+/// part a few gaps wide show cores of 1–3 spacings, crossed by their lines in dozens of
+/// steps: on seed 1's r038 (lines 8 steps apart) four narrow faces with such cores were
+/// refused at 3 spacings and 21 of 40 corners missed, 15 at 3 pitches. On uniform scans 3
+/// spacings stand: at 1 spacing, seed 29's r000 and r049 found three spurious corners more.
 const NARROW_MIN_WIDTH: f64 = 3.0;
 
 /// Leaves out the narrow faces (ids from `first`) that lie on the plane of a face they touch:
@@ -568,7 +577,11 @@ fn drop_edge_bands(
         if touched
             .iter()
             .any(|&l| (l as usize) < first && same(plane, &state.planes[l as usize]))
-            || width(positions, pts, plane).0 < NARROW_MIN_WIDTH * plane.spacing
+            || width(positions, pts, plane).0
+                < NARROW_MIN_WIDTH
+                    * scale
+                        .around(pts.iter().copied())
+                        .map_or(plane.spacing, |s| s.pitch)
             || turn_across(positions, normals, pts, plane) > NARROW_MAX_TURN.to_radians()
         {
             keep[id] = false;
