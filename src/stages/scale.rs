@@ -135,13 +135,12 @@ pub struct LocalScale {
 }
 
 /// A sampled neighbourhood that lies on one face (no bend stands out of its noise,
-/// [`bends`]): where it is, its plane's normal and its out-of-plane sigma (a sigma, not a
-/// variance: the square of a cloud's lengths at 1e-30 or 1e30 leaves an f32's range).
+/// [`bends`]): where it is, its plane's normal and its out-of-plane variance.
 #[derive(Debug, Clone, Copy)]
 struct FaceSample {
     position: [f64; 3],
     normal: [f32; 3],
-    sigma: f32,
+    var: f32,
 }
 
 /// Neighbours of a sampled point whose plane and sectors give its spacing and noise.
@@ -291,7 +290,7 @@ const FACE_NOISE_RATIO: f64 = 1.5;
 
 impl LocalScale {
     /// The scale with the noise of each point `which` selects read from its own face: the
-    /// lower quartile of the out-of-plane sigmas of the samples within the smoothing reach
+    /// lower quartile of the out-of-plane variances of the samples within the smoothing reach
     /// that lie on one face ([`bends`]) and whose normal is within [`FACE_NOISE_DEGREES`] of
     /// the point's `normals` (its features' PCA normal), where at least
     /// [`FACE_NOISE_SAMPLES`] are and the result differs from the cell's by more than
@@ -331,18 +330,18 @@ impl LocalScale {
                 if !which(i) || n == [0.0; 3] {
                     return None;
                 }
-                let mut sigmas: Vec<f64> = Vec::new();
+                let mut var: Vec<f64> = Vec::new();
                 grid.for_each_within(positions[i], self.face_reach, |k, _, _| {
                     let s = &self.face_samples[k as usize];
                     let c = n[0] * s.normal[0] + n[1] * s.normal[1] + n[2] * s.normal[2];
                     if c.abs() >= cos {
-                        sigmas.push(f64::from(s.sigma));
+                        var.push(f64::from(s.var));
                     }
                 });
-                if sigmas.len() < FACE_NOISE_SAMPLES {
+                if var.len() < FACE_NOISE_SAMPLES {
                     return None;
                 }
-                let sigma = quantile(&mut sigmas, 0.25) as f32;
+                let sigma = quantile(&mut var, 0.25).sqrt() as f32;
                 let cell = self.of(i)[2];
                 let ratio = f64::from(sigma / cell);
                 (!(1.0 / FACE_NOISE_RATIO..=FACE_NOISE_RATIO).contains(&ratio)).then_some(sigma)
@@ -445,7 +444,7 @@ pub fn local_scale_in(
                 r.filter(|r| !r.bent).map(|r| FaceSample {
                     position: positions[i as usize],
                     normal: r.normal.map(|c| c as f32),
-                    sigma: r.var.sqrt() as f32,
+                    var: r.var as f32,
                 })
             })
             .collect()
