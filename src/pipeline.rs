@@ -180,9 +180,8 @@ pub fn process(cloud: Cloud, settings: &Settings, clock: &mut impl LapClock) -> 
             cloud.len()
         );
     }
-    let mut local =
-        scale::local_scale_in(&tree, positions, spacing, &settings.features.scale_rules())
-            .map_err(|e| in_file(&path, e))?;
+    let local = scale::local_scale_in(&tree, positions, spacing, &settings.features.scale_rules())
+        .map_err(|e| in_file(&path, e))?;
     drop(tree);
     let scale = local.summary();
     let (radius_lo, radius_hi) = local.radius_range();
@@ -203,14 +202,6 @@ pub fn process(cloud: Cloud, settings: &Settings, clock: &mut impl LapClock) -> 
     let progress = Progress::start("features", positions.len() as u64, "points");
     let mut features = features::features(positions, &grid, &local, &settings.features, &progress);
     drop(progress);
-    // A small face noisier than the faces around it (its incidence steeper) reads as sharp
-    // in the noise of its cell: its candidates are judged again in their own face's noise,
-    // which every later stage then reads.
-    if settings.features.noise.is_none() {
-        let own = local.with_face_noise(positions, &features.normal, |i| features.candidate[i]);
-        features.rejudge(&local, &own, &settings.features);
-        local = own;
-    }
     clock.lap("features");
     // Edge runs are grown at the scale of the candidates (the points near edges), not of the
     // whole cloud.

@@ -126,26 +126,6 @@ impl Features {
         self.sharpness = Vec::new();
     }
 
-    /// Judges again the points whose noise `after` changed from `before` (see
-    /// [`LocalScale::with_face_noise`]): their sharpness is their out-of-plane variance in
-    /// the new noise variances, and they are candidates by the same thresholds. The normal
-    /// split is no noise statistic and stays.
-    pub fn rejudge(&mut self, before: &LocalScale, after: &LocalScale, params: &FeatureParams) {
-        if self.sharpness.len() != before.len() || after.len() != before.len() {
-            return;
-        }
-        let threshold = params.threshold as f32;
-        for i in 0..self.sharpness.len() {
-            let (old, new) = (noise_var(before.at(i)), noise_var(after.at(i)));
-            if old == new {
-                continue;
-            }
-            self.sharpness[i] = (f64::from(self.sharpness[i]) * old / new) as f32;
-            self.candidate[i] = !self.outlier[i]
-                && (self.split[i] > self.split_threshold || self.sharpness[i] > threshold);
-        }
-    }
-
     /// Frees the arrays faces and segmentation read (normal, variation, count, and those of
     /// [`Features::release_for_faces`]), leaving them empty; `candidate`, `outlier` and
     /// `split` stay. The pipeline frees them as soon as runs and faces are grown, so that
@@ -197,17 +177,6 @@ fn slots_to_ids<T: Copy + Default>(v: Vec<T>, ids: &[u32]) -> Vec<T> {
     out
 }
 
-/// The noise variance sharpness is measured in. Floored: never divide by less than a
-/// millionth of the spacing squared, so a noise-free synthetic scan still gets finite scores.
-fn noise_var(scale: Scale) -> f64 {
-    let Scale {
-        noise: s,
-        spacing: h,
-        ..
-    } = scale;
-    (s * s).max(1e-6 * h * h)
-}
-
 /// Computes the per-point features, each point with its own radius and noise from `scale`.
 /// Any grid works; cells about as wide as most radii are fastest.
 pub fn features(
@@ -218,7 +187,16 @@ pub fn features(
     progress: &Progress,
 ) -> Features {
     let n = positions.len();
-    let var_of = |i: usize| noise_var(scale.at(i));
+    // Noise floor: never divide by less than a millionth of the spacing squared, so a
+    // noise-free synthetic scan still gets finite scores.
+    let var_of = |i: usize| {
+        let Scale {
+            noise: s,
+            spacing: h,
+            ..
+        } = scale.at(i);
+        (s * s).max(1e-6 * h * h)
+    };
     // Work cell by cell, in the grid's spatial order (cache locality, and the 27 cells around
     // a cell found once for all its points), into arrays in that order; handed out by id at
     // the end.
@@ -440,53 +418,6 @@ mod tests {
         let local = crate::stages::scale::local_scale(pts, s, &params.scale_rules()).unwrap();
         let summary = local.summary();
         (local, summary)
-    }
-
-    #[test]
-    fn points_judged_again_in_their_faces_noise_keep_only_the_edge() {
-        // A 90° edge at sigma 0.3 judged in a noise of 0.1 (a cell's on quieter faces): the
-        // faces read as sharp. Judged again in 0.3, only the edge's band stays.
-        let (pts, dist) = dihedral(90.0, 1.0, 0.3, 25.0, 5);
-        let params = FeatureParams::default();
-        let at = |noise: f64| Scale {
-            spacing: 1.0,
-            pitch: 1.0,
-            noise,
-            radius: 4.0,
-        };
-        let quiet = LocalScale::uniform(pts.len(), at(0.1));
-        let own = LocalScale::uniform(pts.len(), at(0.3));
-        let grid = Grid::new(&pts, 4.0).unwrap();
-        let mut f = features(&pts, &grid, &quiet, &params, &Progress::hidden());
-        let truth = features(&pts, &grid, &own, &params, &Progress::hidden());
-        let inner = |i: usize| pts[i][1] > 4.0 && pts[i][1] < 36.0 && dist[i] < 21.0;
-        let far: Vec<usize> = (0..pts.len())
-            .filter(|&i| inner(i) && dist[i] > 6.0)
-            .collect();
-        let flagged = |f: &Features| far.iter().filter(|&&i| f.candidate[i]).count();
-        assert!(
-            flagged(&f) * 2 > far.len(),
-            "{} of {}",
-            flagged(&f),
-            far.len()
-        );
-        f.rejudge(&quiet, &own, &params);
-        // As if measured in the face's noise from the start (sharpness to float rounding).
-        assert_eq!(f.candidate, truth.candidate);
-        for (a, b) in f.sharpness.iter().zip(&truth.sharpness) {
-            assert!((a - b).abs() <= 1e-5 * b.abs().max(1.0), "{a} against {b}");
-        }
-        assert!(
-            flagged(&f) * 100 <= far.len(),
-            "{} of {}",
-            flagged(&f),
-            far.len()
-        );
-        let near: Vec<usize> = (0..pts.len())
-            .filter(|&i| inner(i) && dist[i] < 0.5)
-            .collect();
-        let hits = near.iter().filter(|&&i| f.candidate[i]).count();
-        assert!(hits * 100 >= near.len() * 95, "{hits} of {}", near.len());
     }
 
     #[test]

@@ -37,12 +37,6 @@
 //!   (`on_faces`): a neighbourhood straddling an edge reads the bend as noise and its two
 //!   faces as a denser sampling. Each point takes its cell's values: they depend on the
 //!   surface around it, not on what else was read.
-//! - A **face's own noise** (`LocalScale::with_face_noise`, once the features have
-//!   normals): a small face noisier than the faces around it (seen at a steeper incidence)
-//!   gets the lower quartile over the samples on its own face, those whose normal is its
-//!   points' and whose neighbourhood does not bend (`bends`: a quadric explains no more of it than
-//!   noise would), where that differs from its cell's by half or more. The edge candidates
-//!   are judged again in it (`Features::rejudge`); the radius stays the cell's.
 //! - The **radius** is max(`min_radius` spacings, `noise_radius` sigmas, `normal_radius`
 //!   √(sigma·spacing) up to `noise_radius` spacings): the first two as the cloud-wide rule
 //!   was, the third keeping the
@@ -55,7 +49,7 @@ use rayon::prelude::*;
 
 use crate::error::{Error, Result};
 use crate::geometry::moments::{add_moments, pca_from_moments};
-use crate::geometry::{dot, perp_basis, sub};
+use crate::geometry::{dot, perp_basis};
 use crate::neighbours::{Grid, KdTree};
 
 /// The length scales of a scan, measured or given: one point's, one edge's or (as a summary)
@@ -128,19 +122,6 @@ pub struct LocalScale {
     cell: Vec<u32>,
     /// [spacing, pitch, noise, radius] of each cell.
     cells: Vec<[f32; 4]>,
-    /// The samples whose neighbourhood lies on one face, for [`LocalScale::with_face_noise`].
-    face_samples: Vec<FaceSample>,
-    /// How far from a point its face's samples are looked for (the smoothing reach).
-    face_reach: f64,
-}
-
-/// A sampled neighbourhood that lies on one face (no bend stands out of its noise,
-/// [`bends`]): where it is, its plane's normal and its out-of-plane variance.
-#[derive(Debug, Clone, Copy)]
-struct FaceSample {
-    position: [f64; 3],
-    normal: [f32; 3],
-    var: f32,
 }
 
 /// Neighbours of a sampled point whose plane and sectors give its spacing and noise.
@@ -172,8 +153,6 @@ impl LocalScale {
         LocalScale {
             cell: vec![0; n],
             cells: vec![[scale.spacing, scale.pitch, scale.noise, scale.radius].map(|x| x as f32)],
-            face_samples: Vec::new(),
-            face_reach: 0.0,
         }
     }
 
@@ -279,91 +258,6 @@ impl LocalScale {
     }
 }
 
-/// A point's face noise is read from the samples whose normal is within this many degrees
-/// of the point's: its own face's (and faces parallel to it), not the faces beside it.
-const FACE_NOISE_DEGREES: f64 = 15.0;
-/// The fewest such samples a face noise is read from.
-const FACE_NOISE_SAMPLES: usize = 3;
-/// A face noise replaces the cell's when it differs from it by more than this factor; closer,
-/// the cell's stands (most points, whose cell lies on their face).
-const FACE_NOISE_RATIO: f64 = 1.5;
-
-impl LocalScale {
-    /// The scale with the noise of each point `which` selects read from its own face: the
-    /// lower quartile of the out-of-plane variances of the samples within the smoothing reach
-    /// that lie on one face ([`bends`]) and whose normal is within [`FACE_NOISE_DEGREES`] of
-    /// the point's `normals` (its features' PCA normal), where at least
-    /// [`FACE_NOISE_SAMPLES`] are and the result differs from the cell's by more than
-    /// [`FACE_NOISE_RATIO`]. Spacing, pitch and radius stay the cell's.
-    ///
-    /// Why: the cell's noise is the median of the samples around, most of them on the larger
-    /// faces. Where the noise grows with the incidence, a small face seen obliquely (a small
-    /// hole's wall, a narrow step) is two to three times noisier than the faces around it
-    /// (seed 1's r089: walls at sigma 0.20–0.22, their cells 0.08): every point of it then
-    /// read as sharp, and it was no face. The lower quartile, not the median: a sample with
-    /// an edge a quarter of its reach off its centre passes [`bends`] and reads the bend as
-    /// noise, which only ever adds; with the median, a scan at sigma 0.04 spacing (seed 3's
-    /// r080) lost candidates along one edge and found a false one (edge precision 0.98 →
-    /// 0.79, 366 points away from edges moved).
-    pub fn with_face_noise(
-        &self,
-        positions: &[[f64; 3]],
-        normals: &[[f32; 3]],
-        which: impl Fn(usize) -> bool + Sync,
-    ) -> LocalScale {
-        let mut out = self.clone();
-        if self.face_samples.len() < FACE_NOISE_SAMPLES
-            || self.face_reach.is_nan()
-            || self.face_reach <= 0.0
-        {
-            return out;
-        }
-        let at: Vec<[f64; 3]> = self.face_samples.iter().map(|s| s.position).collect();
-        let Ok(grid) = Grid::new(&at, self.face_reach) else {
-            return out;
-        };
-        let cos = FACE_NOISE_DEGREES.to_radians().cos() as f32;
-        let face_noise: Vec<Option<f32>> = (0..positions.len())
-            .into_par_iter()
-            .map(|i| {
-                let n = normals[i];
-                if !which(i) || n == [0.0; 3] {
-                    return None;
-                }
-                let mut var: Vec<f64> = Vec::new();
-                grid.for_each_within(positions[i], self.face_reach, |k, _, _| {
-                    let s = &self.face_samples[k as usize];
-                    let c = n[0] * s.normal[0] + n[1] * s.normal[1] + n[2] * s.normal[2];
-                    if c.abs() >= cos {
-                        var.push(f64::from(s.var));
-                    }
-                });
-                if var.len() < FACE_NOISE_SAMPLES {
-                    return None;
-                }
-                let sigma = quantile(&mut var, 0.25).sqrt() as f32;
-                let cell = self.of(i)[2];
-                let ratio = f64::from(sigma / cell);
-                (!(1.0 / FACE_NOISE_RATIO..=FACE_NOISE_RATIO).contains(&ratio)).then_some(sigma)
-            })
-            .collect();
-        // New cells in point order: the same cloud gives the same cells whatever the threads.
-        let mut made: std::collections::HashMap<(u32, u32), u32> = Default::default();
-        for (i, sigma) in face_noise.into_iter().enumerate() {
-            let Some(sigma) = sigma else { continue };
-            let old = self.cell[i];
-            let next = out.cells.len() as u32;
-            let c = *made.entry((old, sigma.to_bits())).or_insert(next);
-            if c == next {
-                let [h, pitch, _, radius] = self.cells[old as usize];
-                out.cells.push([h, pitch, sigma, radius]);
-            }
-            out.cell[i] = c;
-        }
-        out
-    }
-}
-
 /// A cell's [spacing, pitch, noise, radius] as a `Scale`.
 #[inline]
 fn scale_of(cell: [f32; 4]) -> Scale {
@@ -436,26 +330,9 @@ pub fn local_scale_in(
     // Samples without a measurement of their own (and none around) take the cloud's.
     let fallback = on_faces(&mut raw.iter().flatten().copied().collect());
     let n = positions.len();
-    let face_samples: Vec<FaceSample> = if params.noise.is_none() {
-        samples
-            .iter()
-            .zip(&raw)
-            .filter_map(|(&i, r)| {
-                r.filter(|r| !r.bent).map(|r| FaceSample {
-                    position: positions[i as usize],
-                    normal: r.normal.map(|c| c as f32),
-                    var: r.var as f32,
-                })
-            })
-            .collect()
-    } else {
-        Vec::new()
-    };
     let mut out = LocalScale {
         cell: vec![0; n],
         cells: Vec::with_capacity(blocks.len()),
-        face_samples,
-        face_reach: reach,
     };
     for (b, &measured) in blocks.iter().zip(&smooth) {
         let OnFaces {
@@ -520,10 +397,6 @@ struct Sample {
     var: f64,
     /// Surface variation λ0 / (λ0 + λ1 + λ2): noise alone on a face, more across an edge.
     variation: f64,
-    /// The neighbourhood's plane normal.
-    normal: [f64; 3],
-    /// Whether the neighbourhood bends (straddles an edge or a curve): [`bends`].
-    bent: bool,
 }
 
 /// Samples whose surface variation exceeds this many times the lower quartile of those
@@ -598,13 +471,6 @@ fn measure(positions: &[[f64; 3]], tree: &KdTree, i: usize) -> Option<Sample> {
     let total = pca.eigenvalues.iter().sum::<f64>();
     let [second, third] = sector_distances(&in_plane, nearest.1.atan2(nearest.0))?;
     let spacing = line_gap(&in_plane, second).map_or(third, |g| g.max(third));
-    let centred: Vec<[f64; 3]> = offsets
-        .iter()
-        .map(|&d| {
-            let c = sub(d, pca.centroid);
-            [dot(c, u), dot(c, v), dot(c, pca.normal)]
-        })
-        .collect();
     Some(Sample {
         spacing,
         anisotropy: spacing / second,
@@ -614,61 +480,7 @@ fn measure(positions: &[[f64; 3]], tree: &KdTree, i: usize) -> Option<Sample> {
         } else {
             0.0
         },
-        normal: pca.normal,
-        bent: bends(&centred),
     })
-}
-
-/// A neighbourhood bends when a quadric explains this many times more of its out-of-plane
-/// spread per added parameter than is left per degree of freedom (the F statistic of the
-/// quadric against the plane): F(3, 42) passes 6.6 once in a thousand on a flat face with
-/// Gaussian noise, while a neighbourhood centred on a 90° edge reads 20–40 at sigma 0.5
-/// spacing and about 100 below (the quadric takes 94 % of a centred V's spread). With the
-/// edge a quarter of the neighbourhood's radius off its centre F falls to 2–12: such
-/// samples pass, their normals tilted towards the face most of them lie on.
-const BENT_F: f64 = 8.0;
-
-/// Whether points (in their plane's frame: x, y in the plane, z along its normal, centred on
-/// their centroid) bend: the least-squares quadric z = a + bx + cy + dx² + exy + fy²
-/// leaves significantly less of z than the plane (F statistic above [`BENT_F`]). The plane
-/// of the frame is the points' PCA plane, so it leaves Σz². Fewer than 10 points, or points
-/// flat to a millionth of their extent, do not bend; an exact quadric through more than flat
-/// points does.
-pub(crate) fn bends(points: &[[f64; 3]]) -> bool {
-    let n = points.len();
-    if n < 10 {
-        return false;
-    }
-    // Lengths in units of the points' RMS extent keep the normal equations conditioned.
-    let extent = (points
-        .iter()
-        .map(|p| p[0] * p[0] + p[1] * p[1])
-        .sum::<f64>()
-        / n as f64)
-        .sqrt();
-    if extent.is_nan() || extent <= 0.0 {
-        return false;
-    }
-    let mut a = nalgebra::Matrix6::<f64>::zeros();
-    let mut b = nalgebra::Vector6::<f64>::zeros();
-    let mut zz = 0.0;
-    for p in points {
-        let (x, y, z) = (p[0] / extent, p[1] / extent, p[2] / extent);
-        let phi = nalgebra::Vector6::new(1.0, x, y, x * x, x * y, y * y);
-        a += phi * phi.transpose();
-        b += phi * z;
-        zz += z * z;
-    }
-    if zz <= n as f64 * 1e-12 {
-        return false;
-    }
-    let Some(chol) = nalgebra::linalg::Cholesky::new(a) else {
-        return false;
-    };
-    let coef = chol.solve(&b);
-    let left = (zz - b.dot(&coef)).max(0.0);
-    let explained = zz - left;
-    explained / 3.0 > BENT_F * left / (n - 6) as f64
 }
 
 /// The third smallest of the nearest distances in eight 45° sectors of the plane, the first
@@ -945,136 +757,6 @@ mod tests {
         assert_eq!(local.radius_range(), (3.5, 3.5));
         let none = LocalScale::uniform(0, local.summary());
         assert_eq!(none.radius_range(), (f32::INFINITY, 0.0));
-    }
-
-    /// Points on a disc of radius 4 (pitch 1, jittered) at heights `z(x, y)` plus noise
-    /// `sigma`, in their own PCA frame, as `bends` takes them.
-    fn disc(z: impl Fn(f64, f64) -> f64, sigma: f64, seed: u64) -> Vec<[f64; 3]> {
-        use rand::{RngExt, SeedableRng};
-        let mut rng = rand::rngs::SmallRng::seed_from_u64(seed);
-        let mut pts = Vec::new();
-        for i in -4..=4 {
-            for j in -4..=4 {
-                let x = f64::from(i) + 0.3 * (rng.random::<f64>() - 0.5);
-                let y = f64::from(j) + 0.3 * (rng.random::<f64>() - 0.5);
-                if x * x + y * y <= 16.0 {
-                    let n = sigma * crate::testdata::gauss(&mut rng);
-                    pts.push([x, y, z(x, y) + n]);
-                }
-            }
-        }
-        let mut m = [0.0; 10];
-        for &p in &pts {
-            add_moments(&mut m, p);
-        }
-        let pca = pca_from_moments(&m).unwrap();
-        let (u, v) = perp_basis(&pca.normal);
-        pts.iter()
-            .map(|&p| {
-                let c = sub(p, pca.centroid);
-                [dot(c, u), dot(c, v), dot(c, pca.normal)]
-            })
-            .collect()
-    }
-
-    #[test]
-    fn a_flat_noisy_neighbourhood_does_not_bend_and_one_across_an_edge_does() {
-        // A face at any noise: F stays under the limit (49 points; 200 draws, none over).
-        for sigma in [0.05, 0.5, 1.0] {
-            let over = (0..200)
-                .filter(|&seed| bends(&disc(|_, _| 0.0, sigma, seed)))
-                .count();
-            assert_eq!(over, 0, "sigma {sigma}: {over} of 200 flat discs bend");
-        }
-        // Across a 90° edge through the centre, or half a pitch off it, at noise up to half
-        // the pitch; a cylinder of radius 10 pitches. (An edge a quarter of the radius off
-        // the centre and more may pass: F 1.7–9 at 1 pitch, most of the disc on one face.)
-        for sigma in [0.0, 0.15, 0.5] {
-            for off in [0.0, 0.5] {
-                for seed in 0..20 {
-                    let v = disc(|x, _| (x - off).abs(), sigma, seed);
-                    assert!(
-                        bends(&v),
-                        "edge {off} off the centre, sigma {sigma}, seed {seed}"
-                    );
-                }
-            }
-            let cylinder = disc(|x, _| 10.0 - (100.0 - x * x).sqrt(), 0.05, 1);
-            assert!(bends(&cylinder));
-        }
-        // Too few points, or none off their plane: no bend.
-        assert!(!bends(&disc(|x, _| x.abs(), 0.1, 1)[..9]));
-        assert!(!bends(&disc(|_, _| 0.0, 0.0, 1)));
-    }
-
-    #[test]
-    fn a_small_noisy_wall_reads_its_own_noise() {
-        // A floor 80 x 80 at noise 0.05 and a wall on it (x = 40, 24 long, 10 high) at noise
-        // 0.25: its cells' noise is the floor's, its own face noise is its own.
-        use rand::{RngExt, SeedableRng};
-        let mut rng = rand::rngs::SmallRng::seed_from_u64(7);
-        let mut pts = Vec::new();
-        let mut on_wall = Vec::new();
-        for i in 0..80 {
-            for j in 0..80 {
-                let (x, y) = (
-                    f64::from(i) + rng.random::<f64>(),
-                    f64::from(j) + rng.random::<f64>(),
-                );
-                pts.push([x, y, 0.05 * crate::testdata::gauss(&mut rng)]);
-                on_wall.push(false);
-            }
-        }
-        for i in 0..24 {
-            for k in 0..10 {
-                let y = 28.0 + f64::from(i) + rng.random::<f64>();
-                let z = 0.5 + f64::from(k) + rng.random::<f64>();
-                pts.push([40.0 + 0.25 * crate::testdata::gauss(&mut rng), y, z]);
-                on_wall.push(true);
-            }
-        }
-        let s = mean_spacing(&pts, 50_000).unwrap();
-        let local = local_scale(&pts, s, &ScaleRules::default()).unwrap();
-        let normals: Vec<[f32; 3]> = on_wall
-            .iter()
-            .map(|&w| if w { [1.0, 0.0, 0.0] } else { [0.0, 0.0, 1.0] })
-            .collect();
-        let own = local.with_face_noise(&pts, &normals, |_| true);
-        let median = |l: &LocalScale, wall: bool| {
-            let mut v: Vec<f64> = (0..pts.len())
-                .filter(|&i| on_wall[i] == wall)
-                .map(|i| l.at(i).noise)
-                .collect();
-            quantile(&mut v, 0.5)
-        };
-        // The wall's interior away from its rims (a quarter of it) reads the wall's noise.
-        let mid: Vec<f64> = (0..pts.len())
-            .filter(|&i| on_wall[i] && (pts[i][1] - 40.0).abs() < 6.0 && pts[i][2] > 3.0)
-            .map(|i| own.at(i).noise)
-            .collect();
-        assert!(
-            median(&local, true) < 0.1,
-            "cells: {}",
-            median(&local, true)
-        );
-        let mut mid = mid;
-        let wall = quantile(&mut mid, 0.5);
-        assert!((wall / 0.25 - 1.0).abs() < 0.3, "wall: {wall}");
-        assert!(
-            (median(&own, false) / 0.05 - 1.0).abs() < 0.3,
-            "floor: {}",
-            median(&own, false)
-        );
-        // Only the points asked for change, and a given noise is never replaced.
-        let none = local.with_face_noise(&pts, &normals, |_| false);
-        assert!((0..pts.len()).all(|i| none.at(i) == local.at(i)));
-        let given = ScaleRules {
-            noise: Some(0.05),
-            ..ScaleRules::default()
-        };
-        let fixed = local_scale(&pts, s, &given).unwrap();
-        let kept = fixed.with_face_noise(&pts, &normals, |_| true);
-        assert!((0..pts.len()).all(|i| kept.at(i).noise as f32 == 0.05));
     }
 
     #[test]
