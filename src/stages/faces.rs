@@ -30,8 +30,8 @@
 //! noise, does not fold, is at least `NARROW_MIN_WIDTH` pitches wide (the flat core the
 //! small normals see), its small normals do not turn across it (a strip along a fillet or
 //! cylinder does), and it does not continue a face it touches (a wide face's own edge
-//! band). On `bench --random 100` (seeds 1–3) this
-//! took corner recall from 0.890–0.899 to 0.949–0.953.
+//! band). On `bench --random 100` (seeds 1–3) this took corner recall from 0.890–0.899 to
+//! 0.949–0.953.
 //!
 //! Reaching the edges (`reach_edges`): last, each face takes the edge candidates next to it
 //! that lie on its plane within tolerance, ring by ring, so faces end at their edges and not
@@ -100,8 +100,9 @@ pub struct Plane {
     pub points: usize,
     /// RMS distance of the face's points to the plane.
     pub rms: f64,
-    /// Median local spacing and noise sigma of the face's points.
+    /// Median local spacing, pitch and noise sigma of the face's points.
     pub spacing: f64,
+    pub pitch: f64,
     pub noise: f64,
 }
 
@@ -577,11 +578,7 @@ fn drop_edge_bands(
         if touched
             .iter()
             .any(|&l| (l as usize) < first && same(plane, &state.planes[l as usize]))
-            || width(positions, pts, plane).0
-                < NARROW_MIN_WIDTH
-                    * scale
-                        .around(pts.iter().copied())
-                        .map_or(plane.spacing, |s| s.pitch)
+            || width(positions, pts, plane).0 < NARROW_MIN_WIDTH * plane.pitch
             || turn_across(positions, normals, pts, plane) > NARROW_MAX_TURN.to_radians()
         {
             keep[id] = false;
@@ -942,7 +939,7 @@ fn face_of(
 }
 
 /// The least-squares plane of `ids` (offsets taken from `origin` for precision), with its
-/// RMS and the points' median spacing and noise.
+/// RMS and the points' median spacing, pitch and noise.
 pub fn fit_plane(
     positions: &[[f64; 3]],
     scale: &LocalScale,
@@ -962,6 +959,7 @@ pub fn fit_plane(
         points: ids.len(),
         rms: (pca.eigenvalues[0]).sqrt(),
         spacing: local.spacing,
+        pitch: local.pitch,
         noise: local.noise,
     })
 }

@@ -637,6 +637,7 @@ mod tests {
             points: 1000,
             rms: 0.0,
             spacing: gap,
+            pitch: gap,
             noise: 0.01,
         };
         let mut planes = vec![
@@ -799,6 +800,7 @@ mod tests {
             points: 1000,
             rms: 0.0,
             spacing: 0.2,
+            pitch: 0.2,
             noise: 0.01,
         };
         let grid = Grid::new(positions, 1.0).unwrap();
@@ -866,6 +868,7 @@ mod tests {
             points: 1000,
             rms: 0.0,
             spacing: 0.2,
+            pitch: 0.2,
             noise: 0.01,
         };
         let faces = Faces {

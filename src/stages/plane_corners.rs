@@ -1086,6 +1086,7 @@ mod tests {
             points: 100,
             rms: 0.0,
             spacing: 1.0,
+            pitch: 1.0,
             noise: 0.0,
         }
     }
