@@ -26,26 +26,26 @@
 
 mod run_common;
 
-use run_common::{assert_corners, assert_passes, bench_random_draws};
+use run_common::{assert_corners, assert_passes, bench_random_draw};
 
 #[test]
 fn issue17_small_hole_walls_at_high_noise_are_faces() {
     // r025 of seed 13: 42,091 points, uniform, sigma 0.3 spacing, two pentagonal holes
     // (corner precision 0.929 before).
-    let cases = bench_random_draws(13, &[("r025", 42_091)]);
-    assert_corners(&cases[0], (0.95, 0.650), 0.95);
+    let case = bench_random_draw(13, "r025", 42_091);
+    assert_corners(&case, (0.95, 0.650), 0.95);
     // r067 of seed 3: 65,020 points, uniform, sigma 0.23 spacing, rounded 1.5 spacings.
-    let cases = bench_random_draws(3, &[("r067", 65_020)]);
-    assert_corners(&cases[0], (0.74, 0.625), 0.99);
+    let case = bench_random_draw(3, "r067", 65_020);
+    assert_corners(&case, (0.74, 0.625), 0.99);
 }
 
 #[test]
 fn issue17_corners_of_a_small_hole_are_where_adjacent_walls_meet() {
     // r094 of seed 1: 42,545 points, uniform, a pentagonal hole with rims of 5–8 spacings.
     // Before: 6 of 42 corners missed, the two walls that do not meet winning over them.
-    let cases = bench_random_draws(1, &[("r094", 42_545)]);
-    assert_corners(&cases[0], (0.98, 0.857), 0.99);
-    assert_passes(&cases[0]);
+    let case = bench_random_draw(1, "r094", 42_545);
+    assert_corners(&case, (0.98, 0.857), 0.99);
+    assert_passes(&case);
 }
 
 #[test]
@@ -54,9 +54,9 @@ fn issue17_rims_of_sparsely_scanned_hole_walls_are_followed() {
     // a pentagonal and a triangular hole 240 h deep. Before: 19 of 40 corners missed, each
     // refused as "the scan leaves the edge" of the top and a wall, and 588 points away from
     // edges moved (1,844 once the rims were followed, before the zones left third faces out).
-    let cases = bench_random_draws(2, &[("r042", 129_228)]);
-    assert_corners(&cases[0], (0.8, 0.525), 0.95);
-    let away = cases[0]["rectify"]["away_moved"].as_u64().unwrap();
+    let case = bench_random_draw(2, "r042", 129_228);
+    assert_corners(&case, (0.8, 0.525), 0.95);
+    let away = case["rectify"]["away_moved"].as_u64().unwrap();
     assert_eq!(
         away, 0,
         "r042: {away} points away from edges moved (588 before)"

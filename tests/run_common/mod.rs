@@ -490,6 +490,11 @@ pub fn bench_random_draws(seed: u64, draws: &[(&str, u64)]) -> Vec<serde_json::V
     cases
 }
 
+/// [`bench_random_draws`] for one draw: its scored case.
+pub fn bench_random_draw(seed: u64, name: &str, points: u64) -> serde_json::Value {
+    bench_random_draws(seed, &[(name, points)]).remove(0)
+}
+
 /// Checks a scored case's rectification: at most `max_away` points away from every edge
 /// moved (`away_before` before the change under test), and rectified / raw distance at most
 /// `max_ratio` (`ratio_before` before).
