@@ -1187,11 +1187,7 @@ fn abnormal_zone(
     // (the first quiet bin ends it), not the last bin that happens to deviate: a slight bend
     // of a face a few spacings out (0.05 h, seen on an L-block) is not the edge's rounding.
     // The smallest mean deviation a bin of n points shows.
-    let detectable = |n: usize| {
-        (3.0 * sigma / (n as f64).sqrt())
-            .max(ZONE_FLOOR * sigma)
-            .max(ZONE_MIN_PITCH * scale.pitch)
-    };
+    let detectable = |n: usize| hidden_limit(n, sigma, scale.pitch);
     let means = bin_means(&sum, &cnt, &level, w);
     let mut zone = 0.0;
     let mut quiet = 0;
@@ -1305,10 +1301,18 @@ fn rounding_share(means: &[Option<f64>], w: f64, dihedral_deg: f64, zone: f64) -
     0.0
 }
 
+/// The smallest mean deviation from the faces a bin of `n` points shows, at noise `sigma`:
+/// three standard errors, at least [`ZONE_FLOOR`] sigmas and [`ZONE_MIN_PITCH`] pitches.
+pub(crate) fn hidden_limit(n: usize, sigma: f64, pitch: f64) -> f64 {
+    (3.0 * sigma / (n as f64).sqrt())
+        .max(ZONE_FLOOR * sigma)
+        .max(ZONE_MIN_PITCH * pitch)
+}
+
 /// The widest hidden zone, in pitches: beyond a rounding's own zone the points moved are face
 /// points, and where the noise hides a rounding wider than this, a user gets more from their
 /// scan as read than from faces flattened far out.
-const HIDDEN_MAX: f64 = 1.5;
+pub(crate) const HIDDEN_MAX: f64 = 1.5;
 
 /// The widest zone (tangent length t, along the faces from the sharp edge) of a circular
 /// rounding between faces at the interior angle `dihedral_deg` whose mean deviation from the

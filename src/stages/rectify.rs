@@ -18,7 +18,9 @@
 use crate::geometry::{add, cross, dot, norm, point_segment, sub};
 use crate::neighbours::Grid;
 use crate::stages::corners::{CornerFit, EdgeGeometry};
-use crate::stages::edges::{EdgeFit, EdgeResult, Surface, mean_faces};
+use crate::stages::edges::{
+    EdgeFit, EdgeResult, HIDDEN_MAX, Surface, hidden_limit, hidden_zone, mean_faces,
+};
 use crate::stages::faces::Faces;
 use crate::stages::features::Scale;
 use crate::stages::plane_corners::FaceEdge;
@@ -242,7 +244,11 @@ pub fn rectify_plane_edges(
             near.push((i, along_face(p, c, d, &e.traces), q, norm(sub(q, p))));
         });
         near.sort_unstable_by_key(|x| x.0);
-        let Some(zone) = plane_edge_zone(&near, &sc, params) else {
+        let interior = dot(e.traces[0], e.traces[1])
+            .clamp(-1.0, 1.0)
+            .acos()
+            .to_degrees();
+        let Some(zone) = plane_edge_zone(&near, &sc, interior, params) else {
             continue;
         };
         zones[k] = Some(zone);
@@ -316,10 +322,14 @@ pub fn rectify_plane_edges(
 
 /// The abnormal zone of a plane edge, from its candidates `near` (id, distance along the
 /// faces, target, distance off the faces): out to the first bin where most lie on the faces,
-/// plus the margin of a fitted edge; `None` when none lies off them next to the edge.
+/// plus the margin of a fitted edge. Where none lies off them next to the edge, the noise
+/// may hide a rounding (between faces at the interior angle `interior_deg`): the widest one
+/// no bin would show, as along a fitted edge (`edges::hidden_zone`, at most
+/// `edges::HIDDEN_MAX` pitches), plus the margin; `None` when that is none either.
 fn plane_edge_zone(
     near: &[(u32, f64, [f64; 3], f64)],
     sc: &Scale,
+    interior_deg: f64,
     params: &RectifyParams,
 ) -> Option<f64> {
     let off_limit = OFF_FACE_SIGMAS * sc.noise + 0.05 * sc.pitch;
@@ -333,7 +343,21 @@ fn plane_edge_zone(
     let end = count
         .iter()
         .position(|c| (c[1] as f64) < ZONE_OFF_SHARE * c[0] as f64)?;
-    (end > 0).then_some(end as f64 * ZONE_BIN * sc.pitch + params.zone_margin * sc.pitch + sc.noise)
+    let margin = params.zone_margin * sc.pitch + sc.noise;
+    if end > 0 {
+        return Some(end as f64 * ZONE_BIN * sc.pitch + margin);
+    }
+    let limits: Vec<f64> = count
+        .iter()
+        .map(|c| hidden_limit(c[0], sc.noise, sc.pitch))
+        .collect();
+    let hidden = hidden_zone(
+        &limits,
+        ZONE_BIN * sc.pitch,
+        interior_deg,
+        HIDDEN_MAX * sc.pitch,
+    );
+    (hidden > 0.0).then_some(hidden + margin)
 }
 
 /// Moves point `i` (at `p`) onto the nearest of a corner's face `planes` (a point on each,
@@ -428,6 +452,46 @@ mod tests {
     use super::*;
     use crate::stages::faces::NO_FACE;
     use crate::stages::features::LocalScale;
+
+    #[test]
+    fn a_plane_edge_zone_the_noise_hides_is_as_wide_as_no_bin_shows() {
+        // 100 candidates every 0.1 from the edge out to 8 (250 a bin of 0.25), at `off` from
+        // the faces: a 90° edge, pitch 0.5, radius 4.
+        let at = |noise: f64| Scale {
+            spacing: 0.5,
+            pitch: 0.5,
+            noise,
+            radius: 4.0,
+        };
+        let params = RectifyParams::default();
+        let near = |off: &dyn Fn(f64) -> f64| -> Vec<(u32, f64, [f64; 3], f64)> {
+            (0..8000)
+                .map(|i| {
+                    let s = (i / 100) as f64 * 0.1 + 0.05;
+                    (i as u32, s, [0.0; 3], off(s))
+                })
+                .collect()
+        };
+        let margin = |sc: &Scale| params.zone_margin * sc.pitch + sc.noise;
+        // On the faces everywhere: a hidden zone, wider in more noise, at most 1.5 pitches.
+        let flat = near(&|_| 0.0);
+        let (quiet, noisy) = (at(0.01), at(0.2));
+        let zq = plane_edge_zone(&flat, &quiet, 90.0, &params).unwrap();
+        let zn = plane_edge_zone(&flat, &noisy, 90.0, &params).unwrap();
+        assert!(
+            zq > margin(&quiet) && zq < zn - margin(&noisy) + margin(&quiet),
+            "{zq} {zn}"
+        );
+        assert!(zn <= HIDDEN_MAX * 0.5 + margin(&noisy) + 1e-12, "{zn}");
+        // Off the faces out to 1.2 (the first bins): the zone that shows.
+        let shown = near(&|s| if s < 1.2 { 1.0 } else { 0.0 });
+        let z = plane_edge_zone(&shown, &noisy, 90.0, &params).unwrap();
+        assert!((z - (1.25 + margin(&noisy))).abs() < 1e-9, "{z}");
+        // Off the faces only farther out: only the hidden zone.
+        let later = near(&|s| if s > 2.0 { 1.0 } else { 0.0 });
+        let z = plane_edge_zone(&later, &noisy, 90.0, &params).unwrap();
+        assert!(z <= HIDDEN_MAX * 0.5 + margin(&noisy) + 1e-12, "{z}");
+    }
 
     #[test]
     fn issue17_a_point_behind_a_plane_edge_is_not_pulled_onto_it() {
