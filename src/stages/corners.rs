@@ -284,6 +284,10 @@ pub struct EdgeGeometry {
     pub polyline: Vec<[f64; 3]>,
     /// Corner ids (into the fitted corners) at the start and end.
     pub corners: [Option<usize>; 2],
+    /// The face traces (unit, perpendicular to the edge, one along each face) of the plane
+    /// edge whose line a straight edge took (`plane_corners::place_edges`): from the faces'
+    /// planes, where the slabs' mean traces come from local fits.
+    pub faces: Option<[[f64; 3]; 2]>,
 }
 
 impl EdgeGeometry {
@@ -368,6 +372,7 @@ pub fn edge_geometry(
                 run: k,
                 polyline,
                 corners: ends,
+                faces: None,
             })
         })
         .collect()

@@ -850,12 +850,18 @@ pub(crate) fn traces(
 }
 
 /// Whether segment c–d lies along segment a–b: both its ends within `tolerance` of a–b's line
-/// and the two overlapping by at least half of the shorter.
+/// and the two overlapping, by at least half of the shorter.
 pub fn overlaps(a: [f64; 3], b: [f64; 3], c: [f64; 3], d: [f64; 3], tolerance: f64) -> bool {
+    overlap(a, b, c, d, tolerance).is_some()
+}
+
+/// How long segment c–d overlaps segment a–b along a–b's line, where it lies along it (see
+/// [`overlaps`]).
+pub fn overlap(a: [f64; 3], b: [f64; 3], c: [f64; 3], d: [f64; 3], tolerance: f64) -> Option<f64> {
     let ab = sub(b, a);
     let l = norm(ab);
     if l == 0.0 {
-        return false;
+        return None;
     }
     let u = ab.map(|x| x / l);
     let off = |p: [f64; 3]| {
@@ -864,11 +870,11 @@ pub fn overlaps(a: [f64; 3], b: [f64; 3], c: [f64; 3], d: [f64; 3], tolerance: f
     };
     let ((tc, dc), (td, dd)) = (off(c), off(d));
     if dc > tolerance || dd > tolerance {
-        return false;
+        return None;
     }
     let (lo, hi) = (tc.min(td), tc.max(td));
     let overlap = hi.min(l) - lo.max(0.0);
-    overlap >= 0.5 * (hi - lo).min(l)
+    (overlap > 0.0 && overlap >= 0.5 * (hi - lo).min(l)).then_some(overlap)
 }
 
 /// A fitted corner this close to a plane corner, in the plane corner's radii, and within
@@ -933,83 +939,144 @@ pub fn place_corners(
     index
 }
 
-/// Places the plane edges: a fitted straight edge along one (see [`overlaps`], within 1.5
-/// spacings) takes its exact line, from corner to corner where the plane edge has corners
-/// (an end without one keeps the fitted end, moved onto the line); one that runs along a
-/// fitted curved edge (a polyline) over half its length or more is that edge and is dropped;
-/// the others are returned as edges of their own, their `corners` turned into indices of the
-/// reported corners (`corner_index`, from [`place_corners`]).
+/// A plane edge beside the line a fitted edge took (off it by more than the tolerance) and
+/// within this cosine of parallel to it (5°) is the same edge: a patch split off a face.
+const PARALLEL_COS: f64 = 0.996_194_698_091_745_5;
+
+/// Places the plane edges: a fitted straight edge along one or more (see [`overlaps`], within
+/// 1.5 spacings) takes the exact line of the one that overlaps it longest, and reaches from
+/// corner to corner where that one or another along the same line has corners (an end
+/// without one keeps the fitted end, moved onto the line, or goes as far as a plane edge
+/// along the line reaches: never shorter); those plane edges are that edge. A plane edge
+/// that runs along a fitted curved edge (a polyline) over half its length or more is that
+/// edge and is dropped, and so is one beside the line a fitted edge took and parallel to it
+/// (see [`PARALLEL_COS`]). The others, those that overlapped a fitted edge at an angle to the
+/// line it took (another line through a short or stray fit) among them, are returned as
+/// edges of their own, their `corners` turned into indices of the reported corners
+/// (`corner_index`, from [`place_corners`]).
+///
+/// Why the longest line: a fitted edge may run along several plane edges, its faces' line
+/// and short ones between one face and a small patch split off the other (a grazing face of
+/// a structured-light view: 37 points parallel to a face of 26,037, a spacing beside it).
+/// Taken one after the other, the last one placed the edge, and a 724-spacing edge lay on a
+/// 12-spacing patch's line, 1–1.2 spacings off at its ends (`bench --random 100 --seed 37`,
+/// r043: rectified / raw 1.05).
 pub fn place_edges(
     edges: &[FaceEdge],
     found: &[FaceCorner],
     corner_index: &[usize],
     geometry: &mut [Option<EdgeGeometry>],
 ) -> Vec<FaceEdge> {
-    let mut own = Vec::new();
-    for fe in edges {
-        let ends = fe.corners.map(|c| c.map(|c| corner_index[c]));
-        let tolerance = 1.5 * fe.corners[0].map_or(fe.scale.spacing, |c| found[c].scale.spacing);
-        let same = geometry.iter_mut().flatten().find(|g| {
-            g.polyline.len() == 2
-                && overlaps(fe.start, fe.end, g.polyline[0], g.polyline[1], tolerance)
-        });
-        match same {
-            Some(g) => {
-                let points = [fe.start, fe.end];
-                let along = sub(fe.end, fe.start);
-                let on_line = |p: [f64; 3]| {
-                    let l2 = dot(along, along);
-                    let t = if l2 > 0.0 {
-                        dot(sub(p, fe.start), along) / l2
-                    } else {
-                        0.0
-                    };
-                    axpy(fe.start, t, along)
-                };
-                // g's end e lies at the plane edge's end `k[e]`.
-                let k = if dot(sub(g.polyline[1], g.polyline[0]), along) >= 0.0 {
-                    [0, 1]
-                } else {
-                    [1, 0]
-                };
-                for e in 0..2 {
-                    match ends[k[e]] {
-                        Some(c) => {
-                            g.polyline[e] = points[k[e]];
-                            g.corners[e] = Some(c);
-                        }
-                        // A fitted end at a corner stays there; an open one (a fragment's)
-                        // reaches as far as both faces follow the line, never shorter.
-                        None => {
-                            let fitted = on_line(g.polyline[e]);
-                            let outward = sub(fitted, g.polyline[1 - e]);
-                            g.polyline[e] = if g.corners[e].is_none()
-                                && dot(sub(points[k[e]], fitted), outward) > 0.0
-                            {
-                                points[k[e]]
+    let tolerance_of =
+        |fe: &FaceEdge| 1.5 * fe.corners[0].map_or(fe.scale.spacing, |c| found[c].scale.spacing);
+    // Each plane edge's fitted straight edge, and how long they overlap.
+    let along: Vec<Option<(usize, f64)>> = edges
+        .iter()
+        .map(|fe| {
+            geometry.iter().enumerate().find_map(|(k, g)| {
+                let g = g.as_ref().filter(|g| g.polyline.len() == 2)?;
+                overlap(
+                    fe.start,
+                    fe.end,
+                    g.polyline[0],
+                    g.polyline[1],
+                    tolerance_of(fe),
+                )
+                .map(|length| (k, length))
+            })
+        })
+        .collect();
+    // Plane edges that are a fitted edge (along its line), not edges of their own.
+    let mut taken = vec![false; edges.len()];
+    for (k, g) in geometry.iter_mut().enumerate() {
+        let Some(g) = g.as_mut() else { continue };
+        // Its plane edges, longest first (the first of equals).
+        let mut mine: Vec<(usize, f64)> = along
+            .iter()
+            .enumerate()
+            .filter_map(|(i, a)| a.filter(|a| a.0 == k).map(|a| (i, a.1)))
+            .collect();
+        mine.sort_by(|x, y| y.1.total_cmp(&x.1).then(x.0.cmp(&y.0)));
+        let Some(&(best, _)) = mine.first() else {
+            continue;
+        };
+        let (start, end) = (edges[best].start, edges[best].end);
+        let along = sub(end, start);
+        let l2 = dot(along, along);
+        let on_line = |p: [f64; 3]| {
+            let t = if l2 > 0.0 {
+                dot(sub(p, start), along) / l2
+            } else {
+                0.0
+            };
+            axpy(start, t, along)
+        };
+        g.faces = Some(edges[best].traces);
+        for &(i, _) in &mine {
+            let fe = &edges[i];
+            let points = [fe.start, fe.end];
+            if i != best
+                && points
+                    .iter()
+                    .any(|&p| norm(sub(p, on_line(p))) > tolerance_of(fe))
+            {
+                // Beside the line and along it: a patch's line, the same edge.
+                let dir = sub(fe.end, fe.start);
+                let cos = dot(dir, along) / (norm(dir) * l2.sqrt());
+                taken[i] = cos.abs() >= PARALLEL_COS;
+                continue;
+            }
+            taken[i] = true;
+            let ends = fe.corners.map(|c| c.map(|c| corner_index[c]));
+            // g's end e lies at the plane edge's end `j[e]`.
+            let j = if dot(sub(g.polyline[1], g.polyline[0]), sub(fe.end, fe.start)) >= 0.0 {
+                [0, 1]
+            } else {
+                [1, 0]
+            };
+            for e in 0..2 {
+                match ends[j[e]] {
+                    // The longest's corners; another's where the fitted end has none yet.
+                    Some(c) if i == best || g.corners[e].is_none() => {
+                        g.polyline[e] = on_line(points[j[e]]);
+                        g.corners[e] = Some(c);
+                    }
+                    Some(_) => {}
+                    // A fitted end at a corner stays there; an open one (a fragment's)
+                    // reaches as far as both faces follow the line, never shorter.
+                    None => {
+                        let fitted = on_line(g.polyline[e]);
+                        let reach = on_line(points[j[e]]);
+                        let outward = sub(fitted, g.polyline[1 - e]);
+                        g.polyline[e] =
+                            if g.corners[e].is_none() && dot(sub(reach, fitted), outward) > 0.0 {
+                                reach
                             } else {
                                 fitted
                             };
-                        }
                     }
                 }
             }
-            // A fitted curved edge (a polyline) along most of it is the same edge, found by
-            // its slabs: the plane edge is a chord of it between two faces grown on gently
-            // curved patches (the faceted fandisk's strips: 145 edges reported instead of
-            // 91, edge length 1.7x the true length). It keeps the fitted polyline.
-            None => {
-                let chord = geometry
-                    .iter()
-                    .flatten()
-                    .any(|g| g.polyline.len() > 2 && along_polyline(fe, g, tolerance));
-                if !chord {
-                    own.push(FaceEdge {
-                        corners: ends,
-                        ..fe.clone()
-                    });
-                }
-            }
+        }
+    }
+    let mut own = Vec::new();
+    for (i, fe) in edges.iter().enumerate() {
+        if taken[i] {
+            continue;
+        }
+        // A fitted curved edge (a polyline) along most of it is the same edge, found by its
+        // slabs: the plane edge is a chord of it between two faces grown on gently curved
+        // patches (the faceted fandisk's strips: 145 edges reported instead of 91, edge
+        // length 1.7x the true length). It keeps the fitted polyline.
+        let chord = geometry
+            .iter()
+            .flatten()
+            .any(|g| g.polyline.len() > 2 && along_polyline(fe, g, tolerance_of(fe)));
+        if !chord {
+            own.push(FaceEdge {
+                corners: fe.corners.map(|c| c.map(|c| corner_index[c])),
+                ..fe.clone()
+            });
         }
     }
     own
@@ -1049,6 +1116,7 @@ mod tests {
             run: 0,
             polyline: arc.clone(),
             corners: [None, None],
+            faces: None,
         })];
         let sc = Scale {
             spacing: 1.0,
@@ -1075,6 +1143,61 @@ mod tests {
         assert_eq!((own[0].start, own[1].start), (off.start, beyond.start));
         // The fitted arc is left as it was.
         assert_eq!(geometry[0].as_ref().unwrap().polyline, arc);
+    }
+
+    #[test]
+    fn issue17_a_fitted_edge_takes_the_line_of_the_plane_edge_along_most_of_it() {
+        // A fitted straight edge along x, 0.2 off the true line y = z = 0 at one end and
+        // 0.2 the other way at the other, spacing 1 (tolerance 1.5). Along it: the faces'
+        // line over most of it, a short piece of the same line beyond its end, and a short
+        // line 1 beside it (a patch split off a face).
+        let geometry = vec![Some(EdgeGeometry {
+            run: 0,
+            polyline: vec![[0.0, 0.2, 0.0], [100.0, -0.2, 0.0]],
+            corners: [None, None],
+            faces: None,
+        })];
+        let sc = Scale {
+            spacing: 1.0,
+            pitch: 1.0,
+            noise: 0.01,
+            radius: 4.0,
+        };
+        let edge = |start: [f64; 3], end: [f64; 3]| FaceEdge {
+            corners: [None, None],
+            faces: [0, 1],
+            start,
+            end,
+            points: 100,
+            traces: [[0.0, 0.0, 1.0], [0.0, 1.0, 0.0]],
+            scale: sc,
+        };
+        let close = |line: &[[f64; 3]], want: [[f64; 3]; 2]| {
+            for (p, q) in line.iter().zip(want) {
+                assert!(norm(sub(*p, q)) < 1e-9, "{line:?} against {want:?}");
+            }
+        };
+        let main = edge([1.0, 0.0, 0.0], [95.0, 0.0, 0.0]);
+        let beyond = edge([94.0, 0.0, 0.0], [103.0, 0.0, 0.0]);
+        let patch = edge([90.0, 1.0, 0.0], [98.0, 1.0, 0.0]);
+        for order in [[&main, &beyond, &patch], [&patch, &beyond, &main]] {
+            let mut g = geometry.clone();
+            let own = place_edges(&order.map(|e| e.clone()), &[], &[], &mut g);
+            // All three are the fitted edge. It lies on the main line, its open ends where
+            // the fit had them or as far as a plane edge along that line reaches.
+            assert!(own.is_empty(), "{own:?}");
+            close(
+                &g[0].as_ref().unwrap().polyline,
+                [[0.0, 0.0, 0.0], [103.0, 0.0, 0.0]],
+            );
+        }
+        // Alone, the patch's line is the best there is.
+        let mut g = geometry.clone();
+        assert!(place_edges(&[patch], &[], &[], &mut g).is_empty());
+        close(
+            &g[0].as_ref().unwrap().polyline,
+            [[0.0, 1.0, 0.0], [100.0, 1.0, 0.0]],
+        );
     }
 
     fn plane(normal: [f64; 3], point: [f64; 3]) -> Plane {
@@ -1199,7 +1322,8 @@ mod tests {
         assert!(!overlaps(a, b, [2.0, 1.0, 0.0], [9.0, 1.0, 0.0], 0.5));
         assert!(!overlaps(a, b, [11.0, 0.0, 0.0], [20.0, 0.0, 0.0], 0.5));
         assert!(!overlaps(a, b, [9.0, 0.0, 0.0], [20.0, 0.0, 0.0], 0.5));
-        // Degenerate a–b.
+        // Degenerate a–b or c–d (a fitted edge collapsed onto its corner).
         assert!(!overlaps(a, a, a, b, 0.5));
+        assert!(!overlaps(a, b, [5.0, 0.0, 0.0], [5.0, 0.0, 0.0], 0.5));
     }
 }
