@@ -1037,8 +1037,9 @@ pub fn place_edges(
             for e in 0..2 {
                 match ends[j[e]] {
                     // The longest's corners; another's where the fitted end has none yet.
+                    // The edge ends exactly at its corner.
                     Some(c) if i == best || g.corners[e].is_none() => {
-                        g.polyline[e] = on_line(points[j[e]]);
+                        g.polyline[e] = points[j[e]];
                         g.corners[e] = Some(c);
                     }
                     Some(_) => {}
