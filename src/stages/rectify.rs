@@ -250,7 +250,11 @@ pub fn rectify_plane_edges(
             .clamp(-1.0, 1.0)
             .acos()
             .to_degrees();
-        let Some(zone) = plane_edge_zone(&near, &sc, interior, params) else {
+        // A zone no bin shows is trusted only between two corners of the edge's faces: a
+        // stretch that the face-pair walk found with an open end can run on past the true
+        // edge, a few spacings off it (seed 1's r090, a grid view: 23 face points moved).
+        let hidden = e.corners.iter().all(Option::is_some);
+        let Some(zone) = plane_edge_zone(&near, &sc, hidden.then_some(interior), params) else {
             continue;
         };
         zones[k] = Some(zone);
@@ -325,13 +329,13 @@ pub fn rectify_plane_edges(
 /// The abnormal zone of a plane edge, from its candidates `near` (id, distance along the
 /// faces, target, distance off the faces): out to the first bin where most lie on the faces,
 /// plus the margin of a fitted edge. Where none lies off them next to the edge, the noise
-/// may hide a rounding (between faces at the interior angle `interior_deg`): the widest one
-/// no bin would show, as along a fitted edge (`edges::hidden_zone`, at most
+/// may hide a rounding (between faces at the interior angle `interior_deg`, when given): the
+/// widest one no bin would show, as along a fitted edge (`edges::hidden_zone`, at most
 /// `edges::HIDDEN_MAX` pitches), plus the margin; `None` when that is none either.
 fn plane_edge_zone(
     near: &[(u32, f64, [f64; 3], f64)],
     sc: &Scale,
-    interior_deg: f64,
+    interior_deg: Option<f64>,
     params: &RectifyParams,
 ) -> Option<f64> {
     let off_limit = OFF_FACE_SIGMAS * sc.noise + 0.05 * sc.pitch;
@@ -349,6 +353,7 @@ fn plane_edge_zone(
     if end > 0 {
         return Some(end as f64 * ZONE_BIN * sc.pitch + margin);
     }
+    let interior_deg = interior_deg?;
     let limits: Vec<f64> = count
         .iter()
         .map(|c| hidden_limit(c[0], sc.noise, sc.pitch))
@@ -478,20 +483,22 @@ mod tests {
         // On the faces everywhere: a hidden zone, wider in more noise, at most 1.5 pitches.
         let flat = near(&|_| 0.0);
         let (quiet, noisy) = (at(0.01), at(0.2));
-        let zq = plane_edge_zone(&flat, &quiet, 90.0, &params).unwrap();
-        let zn = plane_edge_zone(&flat, &noisy, 90.0, &params).unwrap();
+        let zq = plane_edge_zone(&flat, &quiet, Some(90.0), &params).unwrap();
+        let zn = plane_edge_zone(&flat, &noisy, Some(90.0), &params).unwrap();
         assert!(
             zq > margin(&quiet) && zq < zn - margin(&noisy) + margin(&quiet),
             "{zq} {zn}"
         );
         assert!(zn <= HIDDEN_MAX * 0.5 + margin(&noisy) + 1e-12, "{zn}");
+        // Not asked for (an edge with an open end): no zone.
+        assert_eq!(plane_edge_zone(&flat, &noisy, None, &params), None);
         // Off the faces out to 1.2 (the first bins): the zone that shows.
         let shown = near(&|s| if s < 1.2 { 1.0 } else { 0.0 });
-        let z = plane_edge_zone(&shown, &noisy, 90.0, &params).unwrap();
+        let z = plane_edge_zone(&shown, &noisy, Some(90.0), &params).unwrap();
         assert!((z - (1.25 + margin(&noisy))).abs() < 1e-9, "{z}");
         // Off the faces only farther out: only the hidden zone.
         let later = near(&|s| if s > 2.0 { 1.0 } else { 0.0 });
-        let z = plane_edge_zone(&later, &noisy, 90.0, &params).unwrap();
+        let z = plane_edge_zone(&later, &noisy, Some(90.0), &params).unwrap();
         assert!(z <= HIDDEN_MAX * 0.5 + margin(&noisy) + 1e-12, "{z}");
     }
 
