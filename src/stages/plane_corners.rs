@@ -1001,15 +1001,15 @@ pub fn place_edges(
             continue;
         };
         let (start, end) = (edges[best].start, edges[best].end);
-        let along = sub(end, start);
-        let l2 = dot(along, along);
+        let line = sub(end, start);
+        let l2 = dot(line, line);
         let on_line = |p: [f64; 3]| {
             let t = if l2 > 0.0 {
-                dot(sub(p, start), along) / l2
+                dot(sub(p, start), line) / l2
             } else {
                 0.0
             };
-            axpy(start, t, along)
+            axpy(start, t, line)
         };
         g.faces = Some(edges[best].traces);
         for &(i, _) in &mine {
@@ -1022,7 +1022,7 @@ pub fn place_edges(
             {
                 // Beside the line and along it: a patch's line, the same edge.
                 let dir = sub(fe.end, fe.start);
-                let cos = dot(dir, along) / (norm(dir) * l2.sqrt());
+                let cos = dot(dir, line) / (norm(dir) * l2.sqrt());
                 taken[i] = cos.abs() >= PARALLEL_COS;
                 continue;
             }
@@ -1104,6 +1104,34 @@ fn along_polyline(fe: &FaceEdge, g: &EdgeGeometry, tolerance: f64) -> bool {
 mod tests {
     use super::*;
 
+    /// One fitted edge along `polyline`, no corners.
+    fn fitted_edge(polyline: Vec<[f64; 3]>) -> Vec<Option<EdgeGeometry>> {
+        vec![Some(EdgeGeometry {
+            run: 0,
+            polyline,
+            corners: [None, None],
+            faces: None,
+        })]
+    }
+
+    /// A plane edge of faces 0 and 1 without corners, spacing 1.
+    fn open_edge(start: [f64; 3], end: [f64; 3], traces: [[f64; 3]; 2]) -> FaceEdge {
+        FaceEdge {
+            corners: [None, None],
+            faces: [0, 1],
+            start,
+            end,
+            points: 100,
+            traces,
+            scale: Scale {
+                spacing: 1.0,
+                pitch: 1.0,
+                noise: 0.01,
+                radius: 4.0,
+            },
+        }
+    }
+
     #[test]
     fn a_plane_edge_along_a_fitted_curved_edge_is_that_edge() {
         // A fitted arc of radius 100 in the xy-plane (polyline every 2°), spacing 1.
@@ -1113,27 +1141,8 @@ mod tests {
                 [100.0 * a.cos(), 100.0 * a.sin(), 0.0]
             })
             .collect();
-        let mut geometry = vec![Some(EdgeGeometry {
-            run: 0,
-            polyline: arc.clone(),
-            corners: [None, None],
-            faces: None,
-        })];
-        let sc = Scale {
-            spacing: 1.0,
-            pitch: 1.0,
-            noise: 0.01,
-            radius: 4.0,
-        };
-        let edge = |start: [f64; 3], end: [f64; 3]| FaceEdge {
-            corners: [None, None],
-            faces: [0, 1],
-            start,
-            end,
-            points: 100,
-            traces: [[0.0, 0.0, 1.0], [1.0, 0.0, 0.0]],
-            scale: sc,
-        };
+        let mut geometry = fitted_edge(arc.clone());
+        let edge = |start, end| open_edge(start, end, [[0.0, 0.0, 1.0], [1.0, 0.0, 0.0]]);
         // A chord of 10° (sagitta 0.38) along the arc, one 3 off it, and one along it over
         // a third of its length only.
         let on = edge(arc[5], arc[10]);
@@ -1152,27 +1161,8 @@ mod tests {
         // 0.2 the other way at the other, spacing 1 (tolerance 1.5). Along it: the faces'
         // line over most of it, a short piece of the same line beyond its end, and a short
         // line 1 beside it (a patch split off a face).
-        let geometry = vec![Some(EdgeGeometry {
-            run: 0,
-            polyline: vec![[0.0, 0.2, 0.0], [100.0, -0.2, 0.0]],
-            corners: [None, None],
-            faces: None,
-        })];
-        let sc = Scale {
-            spacing: 1.0,
-            pitch: 1.0,
-            noise: 0.01,
-            radius: 4.0,
-        };
-        let edge = |start: [f64; 3], end: [f64; 3]| FaceEdge {
-            corners: [None, None],
-            faces: [0, 1],
-            start,
-            end,
-            points: 100,
-            traces: [[0.0, 0.0, 1.0], [0.0, 1.0, 0.0]],
-            scale: sc,
-        };
+        let geometry = fitted_edge(vec![[0.0, 0.2, 0.0], [100.0, -0.2, 0.0]]);
+        let edge = |start, end| open_edge(start, end, [[0.0, 0.0, 1.0], [0.0, 1.0, 0.0]]);
         let close = |line: &[[f64; 3]], want: [[f64; 3]; 2]| {
             for (p, q) in line.iter().zip(want) {
                 assert!(norm(sub(*p, q)) < 1e-9, "{line:?} against {want:?}");
