@@ -225,7 +225,7 @@ pub fn planar_faces(
         min_points,
         &mut state,
     );
-    refine_planes(positions, features, scale, &mut state);
+    refine_planes(positions, features, &mut state);
     if !full.is_crowded(CROWD_FACTOR, CROWD_FLOOR) {
         reach_edges(positions, full, features, scale, &mut state);
     }
@@ -955,12 +955,7 @@ const REFINE_NORMAL: f64 = 3.0;
 /// towards it (issue 17: a face beside a fillet 0.03–0.08° off, its corners 3–8 times the
 /// oracle's error). The arc's normals turn by x / R there, well beyond a flat face's normal
 /// noise; noise alone leaves the plane where it was.
-fn refine_planes(
-    positions: &[[f64; 3]],
-    features: &Features,
-    scale: &LocalScale,
-    state: &mut Growth,
-) {
+fn refine_planes(positions: &[[f64; 3]], features: &Features, state: &mut Growth) {
     let mut members: Vec<Vec<u32>> = vec![Vec::new(); state.planes.len()];
     for (i, &l) in state.label.iter().enumerate() {
         if l != NO_FACE && !features.candidate[i] {
@@ -996,18 +991,28 @@ fn refine_planes(
             {
                 return None;
             }
-            fit_plane(positions, scale, &kept, plane.centroid)
+            // The plane alone: `fit_plane`'s medians of the local scale would cost more than
+            // the moments, and the face's scale stays that of all its points.
+            let origin = plane.centroid;
+            let mut m = [0.0; 10];
+            for &i in &kept {
+                add_moments(&mut m, sub(positions[i as usize], origin));
+            }
+            pca_from_moments(&m).map(|pca| Plane {
+                normal: if dot(pca.normal, plane.normal) < 0.0 {
+                    pca.normal.map(|c| -c)
+                } else {
+                    pca.normal
+                },
+                centroid: [0, 1, 2].map(|k| origin[k] + pca.centroid[k]),
+                rms: pca.eigenvalues[0].sqrt(),
+                ..*plane
+            })
         })
         .collect();
     for (plane, refit) in state.planes.iter_mut().zip(refits) {
         if let Some(r) = refit {
-            plane.normal = if dot(r.normal, plane.normal) < 0.0 {
-                r.normal.map(|c| -c)
-            } else {
-                r.normal
-            };
-            plane.centroid = r.centroid;
-            plane.rms = r.rms;
+            *plane = r;
         }
     }
 }
