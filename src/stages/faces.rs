@@ -993,20 +993,17 @@ fn refine_planes(positions: &[[f64; 3]], features: &Features, state: &mut Growth
             }
             // The plane alone: `fit_plane`'s medians of the local scale would cost more than
             // the moments, and the face's scale stays that of all its points.
-            let origin = plane.centroid;
-            let mut m = [0.0; 10];
-            for &i in &kept {
-                add_moments(&mut m, sub(positions[i as usize], origin));
-            }
-            pca_from_moments(&m).map(|pca| Plane {
-                normal: if dot(pca.normal, plane.normal) < 0.0 {
-                    pca.normal.map(|c| -c)
-                } else {
-                    pca.normal
-                },
-                centroid: [0, 1, 2].map(|k| origin[k] + pca.centroid[k]),
-                rms: pca.eigenvalues[0].sqrt(),
-                ..*plane
+            least_squares_plane(positions, &kept, plane.centroid).map(|(normal, centroid, rms)| {
+                Plane {
+                    normal: if dot(normal, plane.normal) < 0.0 {
+                        normal.map(|c| -c)
+                    } else {
+                        normal
+                    },
+                    centroid,
+                    rms,
+                    ..*plane
+                }
             })
         })
         .collect();
@@ -1017,6 +1014,22 @@ fn refine_planes(positions: &[[f64; 3]], features: &Features, state: &mut Growth
     }
 }
 
+/// The least-squares plane of `ids` (offsets taken from `origin` for precision): its unit
+/// normal, centroid and RMS distance; `None` for fewer than three points.
+fn least_squares_plane(
+    positions: &[[f64; 3]],
+    ids: &[u32],
+    origin: [f64; 3],
+) -> Option<([f64; 3], [f64; 3], f64)> {
+    let mut m = [0.0; 10];
+    for &i in ids {
+        add_moments(&mut m, sub(positions[i as usize], origin));
+    }
+    let pca = pca_from_moments(&m)?;
+    let centroid = [0, 1, 2].map(|k| origin[k] + pca.centroid[k]);
+    Some((pca.normal, centroid, pca.eigenvalues[0].sqrt()))
+}
+
 /// The least-squares plane of `ids` (offsets taken from `origin` for precision), with its
 /// RMS and the points' median spacing, pitch and noise.
 pub fn fit_plane(
@@ -1025,18 +1038,13 @@ pub fn fit_plane(
     ids: &[u32],
     origin: [f64; 3],
 ) -> Option<Plane> {
-    let mut m = [0.0; 10];
-    for &i in ids {
-        add_moments(&mut m, sub(positions[i as usize], origin));
-    }
-    let pca = pca_from_moments(&m)?;
-    let centroid = [0, 1, 2].map(|k| origin[k] + pca.centroid[k]);
+    let (normal, centroid, rms) = least_squares_plane(positions, ids, origin)?;
     let local = scale.around(ids.iter().copied())?;
     Some(Plane {
-        normal: pca.normal,
+        normal,
         centroid,
         points: ids.len(),
-        rms: (pca.eigenvalues[0]).sqrt(),
+        rms,
         spacing: local.spacing,
         pitch: local.pitch,
         noise: local.noise,
@@ -1083,7 +1091,7 @@ mod tests {
     /// A jittered grid on the box [0, a] x [0, b] x [0, c] surface, pitch h.
     fn box_surface(a: f64, b: f64, c: f64, h: f64) -> Vec<[f64; 3]> {
         let mut pts = Vec::new();
-        let mut u = uniform(7);
+        let mut u = uniform(12345);
         let mut jitter = || u() * 0.3 * h;
         let steps = |l: f64| (l / h).round() as usize;
         for (u, v, w, map) in [
