@@ -523,7 +523,6 @@ fn expand_features(f: Features, distinct: &Distinct) -> Features {
         candidate: distinct.expand(f.candidate),
         outlier: distinct.expand(f.outlier),
         split_threshold: f.split_threshold,
-        noise: kept(distinct, f.noise),
     }
 }
 

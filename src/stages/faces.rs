@@ -67,15 +67,6 @@ const PLANE_SLACK: f64 = 0.05;
 fn plane_tolerance(noise: f64, spacing: f64) -> f64 {
     PLANE_SIGMAS * noise + PLANE_SLACK * spacing
 }
-
-/// [`plane_tolerance`] at point `j`: its scale's noise, or the larger noise `given` for it
-/// (raised by the features where a face scatters more than its scale says, see
-/// `features::raise_noise`).
-fn tolerance_at(scale: &LocalScale, given: Option<&[f32]>, j: usize) -> f64 {
-    let Scale { noise, spacing, .. } = scale.at(j);
-    let noise = given.map_or(noise, |g| noise.max(f64::from(g[j])));
-    plane_tolerance(noise, spacing)
-}
 /// Neighbours within this many local spacings are reached from a face point: sampling gaps
 /// of scan lines and grids are measured in the local spacing, so two bridge them.
 const REACH: f64 = 2.0;
@@ -223,7 +214,6 @@ pub fn planar_faces(
         &eligible,
         min_points,
         OPEN_SHARE,
-        (!features.noise.is_empty()).then_some(&features.noise[..]),
         &mut state,
     );
     narrow_faces(
@@ -368,7 +358,6 @@ fn grow(
     eligible: &dyn Fn(usize) -> bool,
     min_points: usize,
     open_share: f64,
-    noise: Option<&[f32]>,
     state: &mut Growth,
 ) {
     let cos_tol = NORMAL_TOLERANCE.to_radians().cos();
@@ -417,7 +406,8 @@ fn grow(
                 }
                 let nj = normals[j].map(f64::from);
                 let d = sub(positions[j], origin);
-                let tol = tolerance_at(scale, noise, j);
+                let Scale { noise, spacing, .. } = scale.at(j);
+                let tol = plane_tolerance(noise, spacing);
                 if dot(nj, normal).abs() < cos_tol || dot(normal, sub(d, centre)).abs() > tol {
                     if refused_by[j] != stamp {
                         refused_by[j] = stamp;
@@ -440,7 +430,6 @@ fn grow(
         }
         let plane = face_of(
             positions, scale, &region, &refused, taken, scrap, origin, min_points, open_share,
-            noise,
         );
         let Some(plane) = plane else {
             for &i in &region {
@@ -496,29 +485,10 @@ fn narrow_faces(
     if grid.is_crowded(CROWD_FACTOR, CROWD_FLOOR) || full.is_crowded(CROWD_FACTOR, CROWD_FLOOR) {
         return;
     }
-    let (normals, small) = small_normals(positions, scale, &ids, &grid);
-    // Each point's noise: its scale's, or the larger one the features measured on its
-    // neighbourhood (see `features::raise_noise`: walls seen at grazing incidence).
-    let sigma: Vec<f32> = ids
-        .iter()
-        .map(|&i| {
-            let raised = features.noise.get(i as usize).copied().unwrap_or(0.0);
-            (scale.at(i as usize).noise as f32).max(raised)
-        })
-        .collect();
-    let flatness: Vec<f32> = ids
-        .iter()
-        .zip(small.iter().zip(&sigma))
-        .map(|(&i, (&v, &s))| {
-            let floor = 1e-3 * scale.at(i as usize).spacing as f32;
-            (v / s.max(floor)).powi(2)
-        })
-        .collect();
-    let mut noise = vec![0.0f32; positions.len()];
+    let (normals, flatness) = small_normals(positions, scale, &ids, &grid);
     let mut flat = vec![false; positions.len()];
     let mut seeds: Vec<u32> = Vec::new();
     for (k, &i) in ids.iter().enumerate() {
-        noise[i as usize] = sigma[k];
         if flatness[k] <= SMALL_FLAT {
             flat[i as usize] = true;
             seeds.push(i);
@@ -549,7 +519,6 @@ fn narrow_faces(
         &eligible,
         min_points,
         f64::INFINITY,
-        Some(&noise),
         state,
     );
     drop_edge_bands(positions, full, scale, &by_id, first, state);
@@ -713,8 +682,8 @@ fn principal_axes(
 const SMALL_FLAT: f32 = 3.0;
 
 /// For each of `ids` (the points of `grid`), the PCA normal of its neighbours within `REACH`
-/// spacings among `grid`'s points, and the square root of that neighbourhood's
-/// out-of-plane variance (infinite with fewer than six neighbours).
+/// spacings among `grid`'s points, and that neighbourhood's out-of-plane variance in noise
+/// variances (infinite with fewer than six neighbours).
 fn small_normals(
     positions: &[[f64; 3]],
     scale: &LocalScale,
@@ -725,13 +694,17 @@ fn small_normals(
     ids.par_iter()
         .map(|&i| {
             let i = i as usize;
-            let h = scale.at(i).spacing;
+            let Scale {
+                spacing: h,
+                noise: s,
+                ..
+            } = scale.at(i);
             let mut m = [0.0; 10];
             grid.for_each_within(positions[i], REACH * h, |_, d, _| add_moments(&mut m, d));
             match pca_from_moments(&m) {
                 Some(p) if m[0] >= 6.0 => (
                     p.normal.map(|c| c as f32),
-                    p.eigenvalues[0].max(0.0).sqrt() as f32,
+                    (p.eigenvalues[0] / (s * s).max(1e-6 * h * h)) as f32,
                 ),
                 _ => ([0.0; 3], f32::INFINITY),
             }
@@ -911,7 +884,6 @@ fn face_of(
     origin: [f64; 3],
     min_points: usize,
     open_share: f64,
-    noise: Option<&[f32]>,
 ) -> Option<Plane> {
     if region.len() < min_points {
         if region.len() >= 20 {
@@ -921,15 +893,7 @@ fn face_of(
     }
     // A face ends at its edges, where the candidates begin; a patch of a curved surface ends
     // where the surface turns away from its plane, among points that are no candidates.
-    let mut plane = fit_plane(positions, scale, region, origin)?;
-    // A face noisier than its scale says (see `features::raise_noise`) has its own noise.
-    if let Some(given) = noise {
-        let mut own: Vec<f32> = region.iter().map(|&i| given[i as usize]).collect();
-        let mid = own.len() / 2;
-        plane.noise = plane.noise.max(f64::from(
-            *own.select_nth_unstable_by(mid, f32::total_cmp).1,
-        ));
-    }
+    let plane = fit_plane(positions, scale, region, origin)?;
     let wide = width(positions, region, &plane).0;
     // A region the fold test can split across (see `folds`) need not count the refused
     // points that lie on its plane: their normals lean towards the faces beside it (their
@@ -942,7 +906,10 @@ fn face_of(
         .filter(|&&j| {
             let j = j as usize;
             (!taken[j] || scrap[j])
-                && (!splits || plane.distance(positions[j]).abs() > tolerance_at(scale, noise, j))
+                && (!splits || {
+                    let Scale { noise, spacing, .. } = scale.at(j);
+                    plane.distance(positions[j]).abs() > plane_tolerance(noise, spacing)
+                })
         })
         .count() as f64;
     let size = region.len() as f64;

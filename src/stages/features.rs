@@ -115,10 +115,6 @@ pub struct Features {
     pub outlier: Vec<bool>,
     /// The `split` threshold used for this cloud.
     pub split_threshold: f32,
-    /// Noise sigma of the points whose neighbourhoods scatter more than their scale says
-    /// (see [`raise_noise`]), 0 elsewhere; empty when no point's does. The faces stage
-    /// reads it.
-    pub noise: Vec<f32>,
 }
 
 impl Features {
@@ -136,7 +132,6 @@ impl Features {
     /// the later stages do not carry 40 bytes a point they never read.
     pub fn release_shape(&mut self) {
         self.release_for_faces();
-        self.noise = Vec::new();
         self.normal = Vec::new();
         self.variation = Vec::new();
         self.count = Vec::new();
@@ -332,29 +327,6 @@ pub fn features(
          median count {median_count}, outlier below {min_count}"
     );
     let outlier: Vec<bool> = count.iter().map(|&c| c < min_count).collect();
-    let mut sharpness = sharpness;
-    let noise = if crowd.is_none() {
-        let flagged: Vec<u32> = (0..n as u32)
-            .filter(|&i| {
-                let i = i as usize;
-                !outlier[i]
-                    && sharpness[i] > plane_threshold
-                    && split[i] <= split_threshold.min(RAISE_MAX_SPLIT)
-            })
-            .collect();
-        raise_noise(
-            positions,
-            grid,
-            scale,
-            &mut sharpness,
-            &count,
-            &outlier,
-            &normal,
-            &flagged,
-        )
-    } else {
-        Vec::new()
-    };
     let candidate: Vec<bool> = (0..n)
         .map(|i| !outlier[i] && (split[i] > split_threshold || sharpness[i] > plane_threshold))
         .collect();
@@ -369,153 +341,6 @@ pub fn features(
         candidate,
         outlier,
         split_threshold,
-        noise,
-    }
-}
-
-/// Share of a neighbourhood whose own out-of-plane variance sets the reference a point's
-/// `sharpness` is measured against (see [`raise_noise`]): the lower quartile.
-const REFERENCE_QUANTILE: f64 = 0.25;
-/// On a noisy face a neighbourhood's out-of-plane variance is at most this many times the
-/// reference (the lower quartile of a chi-square spread); one straddling an edge beside
-/// quieter faces stands further out.
-const NOISE_SPREAD: f64 = 4.0;
-/// ... and its neighbours' normals spread by less than about 8° (the normal tensor's middle
-/// eigenvalue, sin² 8°): noise tilts them by a few degrees, a crease splits them by its
-/// angle (on a noise-free box the split threshold, fifteen times the median split, let
-/// points 2 spacings from an edge through at 0.14).
-const RAISE_MAX_SPLIT: f32 = 0.02;
-
-/// Measures the points `ids` that only their `sharpness` would make candidates (no split of
-/// the normals) against the noise of their own neighbourhood. The scale stage's noise is
-/// the median of cells ten spacings wide, and where faces of different orientation share
-/// cells it is one face's: a scanner sees some faces at grazing incidence, or with its
-/// noise along the ray, and they scatter 2.5-16 times more (issue 17: the 11-20 spacing
-/// walls of the holes of seed 1's r087 and r089 scatter by 0.4-0.7 spacings where their
-/// cells, dominated by the part's top face, read 0.15-0.25). The out-of-plane variance of
-/// every neighbourhood on such a wall is then 3-8 "noise variances", every point of it a
-/// candidate, and it grows no face. The reference is the lower quartile of the neighbours'
-/// own variances (λ0, as the point's): on a noisy face about its noise, at an edge or a
-/// wedge's apex the variance of the faces beside it, whose neighbourhoods do not straddle
-/// it. Only a reference larger than the scale's noise replaces it, and only where the
-/// scatter is noise: not a bend (see [`scatters_like_noise`]), not a straddle of an edge
-/// ([`NOISE_SPREAD`], [`RAISE_MAX_SPLIT`]). Returns each point's raised
-/// noise sigma (the median neighbourhood's, with the plane's three parameters taken out as
-/// in the scale stage), 0 where none was raised, or an empty vector when none was.
-#[allow(clippy::too_many_arguments)]
-fn raise_noise(
-    positions: &[[f64; 3]],
-    grid: &Grid,
-    scale: &LocalScale,
-    sharpness: &mut [f32],
-    count: &[u32],
-    outlier: &[bool],
-    normal: &[[f32; 3]],
-    ids: &[u32],
-) -> Vec<f32> {
-    let var_of = |i: usize| {
-        let Scale {
-            noise: s,
-            spacing: h,
-            ..
-        } = scale.at(i);
-        (s * s).max(1e-6 * h * h)
-    };
-    let own_sharpness: &[f32] = sharpness;
-    let raised: Vec<Option<(f32, f32)>> = ids
-        .par_iter()
-        .map(|&i| {
-            let i = i as usize;
-            let mut own: Vec<f64> = Vec::new();
-            let r = scale.at(i).radius;
-            grid.for_each_within(positions[i], r, |j, _, _| {
-                let j = j as usize;
-                if !outlier[j] {
-                    own.push(f64::from(own_sharpness[j]) * var_of(j));
-                }
-            });
-            if own.len() < 8 {
-                return None;
-            }
-            let at = |q: f64, v: &mut Vec<f64>| {
-                let k = ((q * v.len() as f64) as usize).min(v.len() - 1);
-                *v.select_nth_unstable_by(k, f64::total_cmp).1
-            };
-            let reference = at(REFERENCE_QUANTILE, &mut own);
-            let var = var_of(i);
-            // A point whose own scatter stands out of its neighbours' straddles an edge.
-            let own_var = f64::from(own_sharpness[i]) * var;
-            if reference <= var
-                || own_var > NOISE_SPREAD * reference
-                || !scatters_like_noise(positions, grid, i, normal[i], r)
-            {
-                return None;
-            }
-            let n = f64::from(count[i]).max(4.0);
-            let median = at(0.5, &mut own);
-            Some((
-                (f64::from(own_sharpness[i]) * var / reference) as f32,
-                (median * n / (n - 3.0)).sqrt() as f32,
-            ))
-        })
-        .collect();
-    if raised.iter().all(Option::is_none) {
-        return Vec::new();
-    }
-    let mut noise = vec![0.0f32; positions.len()];
-    for (&i, r) in ids.iter().zip(raised) {
-        if let Some((sharp, sigma)) = r {
-            sharpness[i as usize] = sharp;
-            noise[i as usize] = sigma;
-        }
-    }
-    noise
-}
-
-/// A quadratic surface must leave at least this share of a plane's residual variance for a
-/// neighbourhood's scatter to be noise (see [`scatters_like_noise`]).
-const QUADRATIC_SHARE: f64 = 0.5;
-
-/// Whether the neighbourhood of point `i` (radius `r`, PCA normal `n`) scatters about its
-/// plane as noise does, not as a curved surface: a quadratic height field leaves at least
-/// [`QUADRATIC_SHARE`] of a plane's residual variance (each per degree of freedom). A
-/// rounding or a fillet is the smooth bend a quadratic takes up (the rounding a depth camera
-/// gives a box's edge read as noise, and two edges of the real frames in
-/// ../shared/data/rgbd were lost); noise is left as it was.
-fn scatters_like_noise(positions: &[[f64; 3]], grid: &Grid, i: usize, n: [f32; 3], r: f64) -> bool {
-    use nalgebra::{Matrix3, Matrix6, Vector3, Vector6};
-    let n = n.map(f64::from);
-    let (e1, e2) = crate::geometry::perp_basis(&n);
-    use crate::geometry::dot;
-    let mut q = Matrix6::<f64>::zeros();
-    let mut qz = Vector6::<f64>::zeros();
-    let mut l = Matrix3::<f64>::zeros();
-    let mut lz = Vector3::<f64>::zeros();
-    let (mut zz, mut m) = (0.0, 0usize);
-    grid.for_each_within(positions[i], r, |_, d, _| {
-        let (x, y, z) = (dot(d, e1) / r, dot(d, e2) / r, dot(d, n) / r);
-        let b = Vector6::new(1.0, x, y, x * x, x * y, y * y);
-        q += b * b.transpose();
-        qz += b * z;
-        let c = Vector3::new(1.0, x, y);
-        l += c * c.transpose();
-        lz += c * z;
-        zz += z * z;
-        m += 1;
-    });
-    if m < 12 {
-        return true;
-    }
-    // Residual sums of squares: zᵀz − bᵀ(BᵀB)⁻¹b of each basis.
-    let quadratic =
-        nalgebra::linalg::Cholesky::new(q).map(|c| (zz - qz.dot(&c.solve(&qz))).max(0.0));
-    let plane = nalgebra::linalg::Cholesky::new(l).map(|c| (zz - lz.dot(&c.solve(&lz))).max(0.0));
-    match (quadratic, plane) {
-        (Some(qr), Some(pr)) => {
-            let m = m as f64;
-            qr / (m - 6.0) >= QUADRATIC_SHARE * pr / (m - 3.0)
-        }
-        _ => true,
     }
 }
 
@@ -645,106 +470,6 @@ mod tests {
                 "angle {angle} sigma {sigma}: {hits} of {} edge points flagged",
                 near.len()
             );
-        }
-    }
-
-    /// Issue 17 (seed 1's r087, r089): a face the scanner sees at grazing incidence scatters
-    /// four times more than the face beside it, whose noise its cells report. Its points are
-    /// measured against their own neighbourhood's noise: no candidates on it, the edge still
-    /// flagged, and its noise reported for the faces stage.
-    #[test]
-    fn issue17_a_noisier_face_than_its_cells_say_is_no_candidate_band() {
-        use rand::SeedableRng;
-        let (mut pts, dist) = dihedral(90.0, 1.0, 0.1, 25.0, 11);
-        // The second half is the face x = 0 (dihedral's second direction, 90°): noise 0.4
-        // along its normal.
-        let half = pts.len() / 2;
-        let mut rng = rand::rngs::SmallRng::seed_from_u64(5);
-        let extra = (0.4f64 * 0.4 - 0.1 * 0.1).sqrt();
-        for p in &mut pts[half..] {
-            p[0] += extra * crate::testdata::gauss(&mut rng);
-        }
-        let scale = Scale {
-            spacing: 1.0,
-            pitch: 1.0,
-            noise: 0.1,
-            radius: 4.0,
-        };
-        let local = LocalScale::uniform(pts.len(), scale);
-        let grid = Grid::new(&pts, scale.radius).unwrap();
-        let f = features(
-            &pts,
-            &grid,
-            &local,
-            &FeatureParams::default(),
-            &Progress::hidden(),
-        );
-        let inside = |i: usize| pts[i][1] > 5.0 && pts[i][1] < 35.0 && dist[i] < 20.0;
-        let far: Vec<usize> = (half..pts.len())
-            .filter(|&i| inside(i) && dist[i] > 2.0 * scale.radius)
-            .collect();
-        let flagged = far.iter().filter(|&&i| f.candidate[i]).count();
-        assert!(
-            flagged * 100 <= far.len(),
-            "{flagged} of {} points of the noisy face flagged",
-            far.len()
-        );
-        let mut sigma: Vec<f32> = far.iter().map(|&i| f.noise[i]).collect();
-        sigma.sort_by(f32::total_cmp);
-        let median = sigma[sigma.len() / 2];
-        assert!(
-            (0.32..=0.48).contains(&median),
-            "noisy face's sigma {median}"
-        );
-        // The quiet face keeps its scale's noise, and the edge its candidates.
-        assert!(
-            (0..half)
-                .filter(|&i| inside(i) && dist[i] > 2.0 * scale.radius)
-                .all(|i| f.noise[i] == 0.0)
-        );
-        let near: Vec<usize> = (0..pts.len())
-            .filter(|&i| inside(i) && dist[i] < 0.5)
-            .collect();
-        let hits = near.iter().filter(|&&i| f.candidate[i]).count();
-        assert!(
-            hits * 100 >= near.len() * 95,
-            "{hits} of {} edge points",
-            near.len()
-        );
-    }
-
-    /// A noisy plane scatters like noise; a cylinder of radius 6 (a fillet, the rounding of
-    /// an edge), noise-free or with noise a tenth of its sag over the neighbourhood, does not.
-    #[test]
-    fn a_bend_does_not_scatter_like_noise() {
-        use rand::SeedableRng;
-        let mut rng = rand::rngs::SmallRng::seed_from_u64(3);
-        let mut surface = |bend: f64, sigma: f64| -> Vec<[f64; 3]> {
-            let mut pts = Vec::new();
-            for i in 0..40 {
-                for j in 0..40 {
-                    let (x, y) = (i as f64 * 0.5 - 10.0, j as f64 * 0.5 - 10.0);
-                    let z = bend * (6.0 - (36.0 - x.clamp(-5.9, 5.9).powi(2)).sqrt());
-                    pts.push([x, y, z + sigma * crate::testdata::gauss(&mut rng)]);
-                }
-            }
-            pts
-        };
-        let centre = |pts: &[[f64; 3]]| {
-            (0..pts.len())
-                .min_by(|&a, &b| {
-                    let d = |p: [f64; 3]| p[0].abs() + p[1].abs();
-                    d(pts[a]).total_cmp(&d(pts[b]))
-                })
-                .unwrap()
-        };
-        for (bend, sigma, noise) in [(0.0, 0.2, true), (1.0, 0.0, false), (1.0, 0.05, false)] {
-            let pts = surface(bend, sigma);
-            let grid = Grid::new(&pts, 4.0).unwrap();
-            let i = centre(&pts);
-            // The plane's normal at the centre, as the features give it.
-            let got = scatters_like_noise(&pts, &grid, i, [0.0, 0.0, 1.0], 4.0);
-            assert_eq!(got, noise, "bend {bend} sigma {sigma}");
         }
     }
 
