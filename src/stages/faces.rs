@@ -48,7 +48,7 @@ use std::collections::VecDeque;
 use rayon::prelude::*;
 
 use crate::geometry::moments::{add_moments, pca_from_moments, spread_along};
-use crate::geometry::{dot, sub};
+use crate::geometry::{dot, neg, sub};
 use crate::neighbours::Grid;
 use crate::stages::features::{Features, LocalScale, Scale};
 
@@ -996,7 +996,7 @@ fn refine_planes(positions: &[[f64; 3]], features: &Features, state: &mut Growth
             least_squares_plane(positions, &kept, plane.centroid).map(|(normal, centroid, rms)| {
                 Plane {
                     normal: if dot(normal, plane.normal) < 0.0 {
-                        normal.map(|c| -c)
+                        neg(normal)
                     } else {
                         normal
                     },
@@ -1015,7 +1015,8 @@ fn refine_planes(positions: &[[f64; 3]], features: &Features, state: &mut Growth
 }
 
 /// The least-squares plane of `ids` (offsets taken from `origin` for precision): its unit
-/// normal, centroid and RMS distance; `None` for fewer than three points.
+/// normal, centroid and RMS distance; `None` for fewer than three points or no
+/// eigen-decomposition (`pca_from_moments`).
 fn least_squares_plane(
     positions: &[[f64; 3]],
     ids: &[u32],
