@@ -702,7 +702,19 @@ pub fn describe(path: &Path) -> Result<FileInfo> {
 ///
 /// The guarantee is about failures of this process (errors, panics): the data is not
 /// fsync'ed, so a power loss right after the rename can still lose it.
+///
+/// A destination that exists and is no regular file (`/dev/null`, another device, a FIFO) is
+/// written in place: renaming onto it would replace the device by a regular file (run as
+/// root, `bench --out /dev/null` once did, and every later write to /dev/null appended to
+/// that file).
 pub fn write_atomic(path: &Path, f: impl FnOnce(&mut dyn Write) -> Result<()>) -> Result<()> {
+    if let Some(file) = open_special(path)? {
+        let mut w = std::io::BufWriter::with_capacity(1 << 20, file);
+        f(&mut w)?;
+        return w
+            .flush()
+            .map_err(|e| Error::io(path, "cannot write (disk full?)", e));
+    }
     let tmp = temp_beside(path)?;
     {
         let mut w = std::io::BufWriter::with_capacity(1 << 20, tmp.as_file());
@@ -711,6 +723,24 @@ pub fn write_atomic(path: &Path, f: impl FnOnce(&mut dyn Write) -> Result<()>) -
             .map_err(|e| Error::io(path, "cannot write (disk full?)", e))?;
     }
     persist(tmp, path)
+}
+
+/// `path` opened for writing when it exists and is neither a regular file nor a folder (a
+/// device such as `/dev/null`, a FIFO): such a node is written in place, not replaced.
+/// `None` for anything else (a missing path, a regular file, a folder: those take the
+/// temporary file and the rename, which reports a folder).
+fn open_special(path: &Path) -> Result<Option<std::fs::File>> {
+    let Ok(meta) = std::fs::metadata(path) else {
+        return Ok(None);
+    };
+    if meta.is_file() || meta.is_dir() {
+        return Ok(None);
+    }
+    std::fs::OpenOptions::new()
+        .write(true)
+        .open(path)
+        .map(Some)
+        .map_err(|e| Error::io(path, "cannot open this device or pipe for writing", e))
 }
 
 /// A temporary file in the folder of `path`, readable like any output (0644).
@@ -759,6 +789,9 @@ fn persist(tmp: tempfile::NamedTempFile, path: &Path) -> Result<()> {
 /// header at the end): `f` gets the open temporary file, renamed onto `path` only when `f`
 /// succeeds. `f` flushes what it buffers.
 pub fn write_atomic_file(path: &Path, f: impl FnOnce(std::fs::File) -> Result<()>) -> Result<()> {
+    if let Some(file) = open_special(path)? {
+        return f(file);
+    }
     let tmp = temp_beside(path)?;
     let file = tmp
         .as_file()
@@ -804,6 +837,46 @@ pub(crate) fn attribute(name: &str, values: crate::Column) -> Attribute {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[cfg(unix)]
+    #[test]
+    fn write_atomic_writes_into_a_fifo_and_leaves_it_a_fifo() {
+        use std::io::Read;
+        use std::os::unix::fs::FileTypeExt;
+        let dir = tempfile::tempdir().unwrap();
+        let fifo = dir.path().join("out.fifo");
+        let made = std::process::Command::new("mkfifo").arg(&fifo).status();
+        if !made.is_ok_and(|s| s.success()) {
+            eprintln!("skipped: mkfifo is not available");
+            return;
+        }
+        let reader = {
+            let fifo = fifo.clone();
+            std::thread::spawn(move || {
+                let mut got = Vec::new();
+                std::fs::File::open(&fifo)
+                    .unwrap()
+                    .read_to_end(&mut got)
+                    .unwrap();
+                got
+            })
+        };
+        write_atomic(&fifo, |w| {
+            w.write_all(b"through the pipe")
+                .map_err(|e| Error::io(&fifo, "write", e))
+        })
+        .unwrap();
+        // Checked before joining: a reader of a replaced FIFO would wait for a writer forever.
+        let kind = std::fs::symlink_metadata(&fifo).unwrap().file_type();
+        assert!(kind.is_fifo(), "the FIFO was replaced: {kind:?}");
+        assert_eq!(reader.join().unwrap(), b"through the pipe");
+        // No temporary file was left beside it.
+        let names: Vec<_> = std::fs::read_dir(dir.path())
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect();
+        assert_eq!(names, vec![std::ffi::OsString::from("out.fifo")]);
+    }
 
     #[test]
     fn format_by_extension_ignores_case_and_knows_copc() {
