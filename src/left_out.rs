@@ -23,7 +23,8 @@ pub enum Reason {
     TooFewSlabs,
     /// Both sides lie on one surface (the faces fold back at a few degrees).
     OneSurface,
-    /// The slab fits scatter about their course by spacings: no one edge runs through them.
+    /// The slab fits scatter about their course by spacings, or meet radii off the run's
+    /// candidates: no one edge of theirs runs through them.
     Scattered,
     /// Too short between its vertices for any slab to keep clear of them.
     TooShort,

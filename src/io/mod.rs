@@ -708,21 +708,12 @@ pub fn describe(path: &Path) -> Result<FileInfo> {
 /// root, `bench --out /dev/null` once did, and every later write to /dev/null appended to
 /// that file).
 pub fn write_atomic(path: &Path, f: impl FnOnce(&mut dyn Write) -> Result<()>) -> Result<()> {
-    if let Some(file) = open_special(path)? {
+    write_atomic_file(path, |file| {
         let mut w = std::io::BufWriter::with_capacity(1 << 20, file);
         f(&mut w)?;
-        return w
-            .flush()
-            .map_err(|e| Error::io(path, "cannot write (disk full?)", e));
-    }
-    let tmp = temp_beside(path)?;
-    {
-        let mut w = std::io::BufWriter::with_capacity(1 << 20, tmp.as_file());
-        f(&mut w)?;
         w.flush()
-            .map_err(|e| Error::io(path, "cannot write (disk full?)", e))?;
-    }
-    persist(tmp, path)
+            .map_err(|e| Error::io(path, "cannot write (disk full?)", e))
+    })
 }
 
 /// `path` opened for writing when it exists and is neither a regular file nor a folder (a

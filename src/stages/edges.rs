@@ -437,7 +437,7 @@ const OFF_RUN_RADII: f64 = 2.0;
 /// of the corner: the circle tangent to both faces has its centre R / sin(β/2) from the
 /// edge). A 25° edge rounded over a zone of one radius lies 0.79 radii outside its candidates
 /// (seed 1's r000, a real edge).
-pub(crate) fn apex_offset(zone: f64, dihedral_deg: f64) -> f64 {
+fn apex_offset(zone: f64, dihedral_deg: f64) -> f64 {
     let half = (0.5 * dihedral_deg.clamp(1.0, 179.0)).to_radians();
     zone.max(0.0) * (1.0 / half.cos() - half.tan())
 }
