@@ -16,27 +16,15 @@
 
 mod run_common;
 
-use run_common::{assert_corners, assert_passes, bench_random_draw};
-
-fn edge_recall(case: &serde_json::Value) -> f64 {
-    case["edges"]["recall"].as_f64().unwrap()
-}
+use run_common::{assert_corners, assert_edge_recall, assert_passes, bench_random_draw};
 
 #[test]
 fn issue17_narrow_faces_whose_small_normals_lean_are_faces() {
     assert_passes(&bench_random_draw(2, "r037", 32_325));
     let case = bench_random_draw(3, "r008", 49_300);
     assert_corners(&case, (0.9, 0.615), 0.95);
-    assert!(
-        edge_recall(&case) >= 0.85,
-        "r008: edge recall {:.3} (0.750 before)",
-        edge_recall(&case)
-    );
+    assert_edge_recall(&case, (0.85, 0.750));
     let case = bench_random_draw(1, "r008", 60_695);
     assert_corners(&case, (1.0, 0.889), 0.85);
-    assert!(
-        edge_recall(&case) >= 0.98,
-        "r008: edge recall {:.3} (0.889 before)",
-        edge_recall(&case)
-    );
+    assert_edge_recall(&case, (0.98, 0.889));
 }

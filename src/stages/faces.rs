@@ -1503,8 +1503,8 @@ mod tests {
 
     /// The parabola's turn across a strip is unbiased and its standard error honest: flat
     /// strips 5 spacings wide at sigma 0.2 turn within three standard errors of zero (in at
-    /// least 38 of 40 draws), strips bent to 20 spacings by 5/20 rad (14°) on average, each
-    /// by more than `NARROW_MAX_TURN`.
+    /// least 38 of 40 draws), strips bent to 20 spacings by their fitted width over the
+    /// radius, 6/20 rad (17°), on average, each by more than `NARROW_MAX_TURN`.
     #[test]
     fn bend_across_measures_the_turn_of_a_strip_within_its_error() {
         let (mut within, mut bent_sum) = (0, 0.0);
@@ -1535,9 +1535,9 @@ mod tests {
         );
     }
 
-    /// A narrow face's small normals may lean across it as a fillet's strip turns (on seed
-    /// 1's r050, a line scan, three flat faces of 5–6 pitches turned by 7.6–32° by their
-    /// small normals): its points decide. A flat strip 6 spacings wide given normals that
+    /// A narrow face's small normals may lean across it as a fillet's strip turns (seed 3's
+    /// r008: a hole's flat 7-pitch wall at 7.3° by its small normals, 1.5° by its points):
+    /// its points decide. A flat strip 6 spacings wide given normals that
     /// turn by 40° across it is no curved strip; the same strip bent to 12 spacings is one,
     /// and so is a strip too small for its points to show it flat (3 x 4 spacings, whose
     /// parabola's standard error exceeds the limit), and the flat strip on scan lines

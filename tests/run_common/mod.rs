@@ -540,6 +540,17 @@ pub fn assert_corners(
     );
 }
 
+/// Checks a scored case's edges: recall (share of the true length found) at least
+/// `min_recall` (`recall_before` before the change under test).
+pub fn assert_edge_recall(case: &serde_json::Value, (min_recall, recall_before): (f64, f64)) {
+    let recall = case["edges"]["recall"].as_f64().unwrap();
+    assert!(
+        recall >= min_recall,
+        "{}: edge recall {recall:.3} ({recall_before} before)",
+        case["name"]
+    );
+}
+
 /// Checks that a scored case passes every check of the bench.
 pub fn assert_passes(case: &serde_json::Value) {
     assert_eq!(
