@@ -153,7 +153,8 @@ pub struct EdgeFit {
     /// faces' by this, not by `rounding` (which is then 0).
     pub hidden: f64,
     /// Whether the edge had points enough to measure its zone at all (a few slabs' worth do
-    /// not): without it nothing tells its abnormal points from its faces', and none moves.
+    /// not): without it only the margin tells its abnormal points from its faces' (they move
+    /// as beside a sharp edge), and the zones around its corners leave it out.
     pub zone_known: bool,
     /// Slab fits that failed (count) with the first reason.
     pub failed_slabs: usize,

@@ -106,7 +106,10 @@ pub fn rectify(
             for &i in &s.abnormal {
                 let i = i as usize;
                 out.label[i] = id;
-                if !params.enabled || !e.zone_known {
+                // An edge whose zone could not be measured (too few points) moves its points
+                // as a sharp edge would, within the margin: seed 1's r093 (43k points,
+                // rounding 0.04 h) had left five of them noisy, rectified / raw 0.347 → 0.296.
+                if !params.enabled {
                     continue;
                 }
                 let p = positions[i];
@@ -253,9 +256,8 @@ pub fn rectify_plane_edges(
         // A zone no bin shows is trusted only between two corners of the edge's faces: a
         // stretch that the face-pair walk found with an open end can run on past the true
         // edge, a few spacings off it (seed 1's r090, a grid view: 23 face points moved).
-        // Elsewhere only the points the noise leaves on both faces move (`noise_zone`).
         let hidden = e.corners.iter().all(Option::is_some);
-        let Some(zone) = plane_edge_zone(&near, &sc, interior, hidden, params) else {
+        let Some(zone) = plane_edge_zone(&near, &sc, hidden.then_some(interior), params) else {
             continue;
         };
         zones[k] = Some(zone);
@@ -330,15 +332,13 @@ pub fn rectify_plane_edges(
 /// The abnormal zone of a plane edge, from its candidates `near` (id, distance along the
 /// faces, target, distance off the faces): out to the first bin where most lie on the faces,
 /// plus the margin of a fitted edge. Where none lies off them next to the edge, the noise
-/// may hide a rounding (between faces at the interior angle `interior_deg`) when the edge is
-/// `trusted` (see `rectify_plane_edges`): the widest one no bin would show, as along a fitted
-/// edge (`edges::hidden_zone`, at most `edges::HIDDEN_MAX` pitches), plus the margin; `None`
-/// when that is none either. An edge not trusted that far still has its [`noise_zone`].
+/// may hide a rounding (between faces at the interior angle `interior_deg`, when given): the
+/// widest one no bin would show, as along a fitted edge (`edges::hidden_zone`, at most
+/// `edges::HIDDEN_MAX` pitches), plus the margin; `None` when that is none either.
 fn plane_edge_zone(
     near: &[(u32, f64, [f64; 3], f64)],
     sc: &Scale,
-    interior_deg: f64,
-    trusted: bool,
+    interior_deg: Option<f64>,
     params: &RectifyParams,
 ) -> Option<f64> {
     let off_limit = OFF_FACE_SIGMAS * sc.noise + 0.05 * sc.pitch;
@@ -356,9 +356,7 @@ fn plane_edge_zone(
     if end > 0 {
         return Some(end as f64 * ZONE_BIN * sc.pitch + margin);
     }
-    if !trusted {
-        return Some(noise_zone(sc, interior_deg));
-    }
+    let interior_deg = interior_deg?;
     let limits: Vec<f64> = count
         .iter()
         .map(|c| hidden_limit(c[0], sc.noise, sc.pitch))
@@ -371,24 +369,6 @@ fn plane_edge_zone(
     );
     (hidden > 0.0).then_some(hidden + margin)
 }
-
-/// How far from an edge between faces at the interior angle `interior_deg` a point on one
-/// face lies within two noise sigmas (and a twentieth of a pitch) of the other face's plane
-/// too: out to there its noise alone cannot tell which face it is on, nor whether it lies on
-/// the edge's rounding, so it moves onto the nearer face trace even where no bin shows a
-/// zone. Measured on `bench --random 100 --seed 2`'s r003 (one view, σ 0.09 h, rounding
-/// 0.05 h): two plane edges with an open end had moved none of their 19 abnormal points,
-/// rectified / raw 0.379 → 0.197. The whole margin of a fitted edge (half a pitch) instead
-/// moved face points 4 h out along a plane edge whose scan was 12 h between points (seed 2's
-/// r008: 49 more points away from every edge moved; seed 1's r090: 12).
-fn noise_zone(sc: &Scale, interior_deg: f64) -> f64 {
-    let sin = interior_deg.to_radians().sin().max(NOISE_ZONE_MIN_SIN);
-    2.0 * sc.noise / sin + 0.05 * sc.pitch
-}
-
-/// Faces nearly flat across an edge (an interior angle within 3° of 180°) leave no zone
-/// wider than this sine allows (40 sigmas).
-const NOISE_ZONE_MIN_SIN: f64 = 0.05;
 
 /// Moves point `i` (at `p`) onto the nearest of a corner's face `planes` (a point on each,
 /// its unit normal), unless that is farther than `max_move`.
@@ -506,26 +486,22 @@ mod tests {
         // On the faces everywhere: a hidden zone, wider in more noise, at most 1.5 pitches.
         let flat = near(&|_| 0.0);
         let (quiet, noisy) = (at(0.01), at(0.2));
-        let zq = plane_edge_zone(&flat, &quiet, 90.0, true, &params).unwrap();
-        let zn = plane_edge_zone(&flat, &noisy, 90.0, true, &params).unwrap();
+        let zq = plane_edge_zone(&flat, &quiet, Some(90.0), &params).unwrap();
+        let zn = plane_edge_zone(&flat, &noisy, Some(90.0), &params).unwrap();
         assert!(
             zq > margin(&quiet) && zq < zn - margin(&noisy) + margin(&quiet),
             "{zq} {zn}"
         );
         assert!(zn <= HIDDEN_MAX * 0.5 + margin(&noisy) + 1e-12, "{zn}");
-        // Not asked for (an edge with an open end): only the points the noise leaves within
-        // two sigmas of both faces, 2σ/sin 90° + pitch/20 out, and wider at an obtuse edge.
-        let z = plane_edge_zone(&flat, &noisy, 90.0, false, &params).unwrap();
-        assert!((z - (2.0 * 0.2 + 0.025)).abs() < 1e-12, "{z}");
-        let z = plane_edge_zone(&flat, &noisy, 150.0, false, &params).unwrap();
-        assert!((z - (0.8 + 0.025)).abs() < 1e-12, "{z}");
+        // Not asked for (an edge with an open end): no zone.
+        assert_eq!(plane_edge_zone(&flat, &noisy, None, &params), None);
         // Off the faces out to 1.2 (the first bins): the zone that shows.
         let shown = near(&|s| if s < 1.2 { 1.0 } else { 0.0 });
-        let z = plane_edge_zone(&shown, &noisy, 90.0, true, &params).unwrap();
+        let z = plane_edge_zone(&shown, &noisy, Some(90.0), &params).unwrap();
         assert!((z - (1.25 + margin(&noisy))).abs() < 1e-9, "{z}");
         // Off the faces only farther out: only the hidden zone.
         let later = near(&|s| if s > 2.0 { 1.0 } else { 0.0 });
-        let z = plane_edge_zone(&later, &noisy, 90.0, true, &params).unwrap();
+        let z = plane_edge_zone(&later, &noisy, Some(90.0), &params).unwrap();
         assert!(z <= HIDDEN_MAX * 0.5 + margin(&noisy) + 1e-12, "{z}");
     }
 
