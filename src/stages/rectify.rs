@@ -94,7 +94,10 @@ pub fn rectify(
         let Some(id) = edge_of_run[k] else { continue };
         faces_of[k] = g.faces.or_else(|| mean_faces(&e.slabs));
         // How far from the edge its scan leaves the faces: the rounding's part of the
-        // measured zone, and the margin.
+        // measured zone, and the margin. An edge whose zone could not be measured (too few
+        // points, `EdgeFit::zone_known`) has the margin alone, as a sharp edge: seed 1's r093
+        // (43k points, rounding 0.04 h) had left five of its points noisy, rectified / raw
+        // 0.347 → 0.296.
         let (scale, max_move, zone_margin) = (e.scale, max_move_of(e), zone_margin_of(e));
         reach_of[k] = e.rounding.max(e.hidden) + zone_margin;
         for s in &e.slabs {
@@ -106,9 +109,6 @@ pub fn rectify(
             for &i in &s.abnormal {
                 let i = i as usize;
                 out.label[i] = id;
-                // An edge whose zone could not be measured (too few points) moves its points
-                // as a sharp edge would, within the margin: seed 1's r093 (43k points,
-                // rounding 0.04 h) had left five of them noisy, rectified / raw 0.347 → 0.296.
                 if !params.enabled {
                     continue;
                 }
