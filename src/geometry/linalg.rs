@@ -113,6 +113,44 @@ pub fn perp_basis(d: &[f64; 3]) -> ([f64; 3], [f64; 3]) {
     )
 }
 
+/// Least-squares parabola z = a + b·u + c·u² through `(x, z)` samples (u = x minus the mean
+/// x): the curvature coefficient `c` and its standard error from the residuals (the ordinary
+/// least-squares covariance s²·(XᵀX)⁻¹, e.g. Draper & Smith, *Applied Regression Analysis*,
+/// §2.6). `None` for fewer than six samples or x values that do not spread over three
+/// distinct places (a singular system). A strip of a curved surface of radius R sags as
+/// u²/(2R) across: c = 1/(2R); a plane gives c = 0 within its standard error.
+pub fn parabola_curvature(samples: &[(f64, f64)]) -> Option<(f64, f64)> {
+    let n = samples.len();
+    if n < 6 {
+        return None;
+    }
+    let mx = samples.iter().map(|s| s.0).sum::<f64>() / n as f64;
+    let mut xtx = nalgebra::Matrix3::<f64>::zeros();
+    let mut xtz = nalgebra::Vector3::<f64>::zeros();
+    for &(x, z) in samples {
+        let u = x - mx;
+        let row = nalgebra::Vector3::new(1.0, u, u * u);
+        xtx += row * row.transpose();
+        xtz += row * z;
+    }
+    let inv = xtx.try_inverse()?;
+    let coef = inv * xtz;
+    if !coef.iter().all(|c| c.is_finite()) {
+        return None;
+    }
+    let ssr: f64 = samples
+        .iter()
+        .map(|&(x, z)| {
+            let u = x - mx;
+            let r = z - (coef[0] + coef[1] * u + coef[2] * u * u);
+            r * r
+        })
+        .sum();
+    let var = ssr / (n - 3) as f64;
+    let se = (var * inv[(2, 2)]).max(0.0).sqrt();
+    se.is_finite().then_some((coef[2], se))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -163,5 +201,43 @@ mod tests {
         assert_eq!(solve3(&m, &[2.0, 3.0, 4.0]), Some([1.0, 1.0, 1.0]));
         let s = [[1.0, 1.0, 0.0], [1.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
         assert!(solve3(&s, &[1.0, 1.0, 1.0]).is_none());
+    }
+
+    #[test]
+    fn parabola_curvature_recovers_an_arc_and_finds_none_on_a_plane() {
+        // Exact parabola z = 1 + 0.5 x + 0.25 x² sampled on [-2, 3]: c = 0.25, no residual.
+        let exact: Vec<(f64, f64)> = (0..=50)
+            .map(|i| {
+                let x = -2.0 + 0.1 * i as f64;
+                (x, 1.0 + 0.5 * x + 0.25 * x * x)
+            })
+            .collect();
+        let (c, se) = parabola_curvature(&exact).unwrap();
+        assert!((c - 0.25).abs() < 1e-12 && se < 1e-9, "{c} {se}");
+        // A tilted plane with deterministic ±0.1 noise: c within three standard errors of 0,
+        // and the error about σ·√180/(w²·√n) for x uniform over a width w.
+        let noisy: Vec<(f64, f64)> = (0..400)
+            .map(|i| {
+                let x = 5.0 * i as f64 / 399.0;
+                let noise = if (i * 7919) % 13 < 6 { 0.1 } else { -0.1 };
+                (x, 0.3 * x + noise)
+            })
+            .collect();
+        let (c, se) = parabola_curvature(&noisy).unwrap();
+        let expected_se = 0.1 * 180f64.sqrt() / (25.0 * 20.0);
+        assert!(c.abs() < 3.0 * se, "{c} {se}");
+        assert!(
+            se > 0.5 * expected_se && se < 2.0 * expected_se,
+            "{se} {expected_se}"
+        );
+    }
+
+    #[test]
+    fn parabola_curvature_needs_six_samples_over_three_places() {
+        let few: Vec<(f64, f64)> = (0..5).map(|i| (i as f64, 0.0)).collect();
+        assert!(parabola_curvature(&few).is_none());
+        // Twelve samples on two x values: a line fits, a parabola is undetermined.
+        let two: Vec<(f64, f64)> = (0..12).map(|i| ((i % 2) as f64, i as f64)).collect();
+        assert!(parabola_curvature(&two).is_none());
     }
 }

@@ -27,7 +27,7 @@ pub mod polyline;
 pub mod triangles;
 pub mod vec;
 
-pub use linalg::{perp_basis, solve2, solve3, sym_eigen};
+pub use linalg::{parabola_curvature, perp_basis, solve2, solve3, sym_eigen};
 pub use lines::{
     closest_between_rays, nearest_point_to_lines, pca_line, perpendicular_basis, plane_axes,
     point_line_distance, point_segment,

@@ -373,6 +373,9 @@ struct Zone {
     known: bool,
     /// The widest zone the last measurement could have missed (see [`hidden_zone`]).
     hidden: f64,
+    /// The smallest rounding radius the measured deviations allow (see [`arc_radius_low`]),
+    /// the largest over the passes measured: the fillet test's second reading.
+    arc_low: f64,
 }
 
 /// Fits one run: slab passes until the abnormal zone settles, then decides whether what was
@@ -558,8 +561,9 @@ fn settle_zone(
         );
         kept_rounding = Some(measured.map(|m| m.1));
         zone.known |= measured.is_some();
-        let (raw, rounding, hidden) = measured.unwrap_or((0.0, 0.0, 0.0));
+        let (raw, rounding, hidden, arc_low) = measured.unwrap_or((0.0, 0.0, 0.0, 0.0));
         zone.hidden = hidden;
+        zone.arc_low = zone.arc_low.max(arc_low);
         // Fitting keeps half a bin more out: a side point must be clearly on its face.
         let next = if raw > 0.0 {
             raw + 0.25 * scale.pitch
@@ -747,8 +751,8 @@ fn judge_edge(
     let (line, rms, scatter, straight) = edge_line(&pass.slabs, scale, params);
     let dihedral_deg = median_angle(&pass.slabs);
     tracing::debug!(
-        "edge {k}: {} slabs ({} failed), abnormal zone {:.2} spacings{}, rms {:.3} spacings, \
-         scatter {:.3} spacings, dihedral {dihedral_deg:.1}°, {}",
+        "edge {k}: {} slabs ({} failed), abnormal zone {:.2} spacings{}, rounding radius at \
+         least {:.2}, rms {:.3} spacings, scatter {:.3} spacings, dihedral {dihedral_deg:.1}°, {}",
         pass.slabs.len(),
         pass.failed,
         zone.raw / scale.spacing,
@@ -757,6 +761,7 @@ fn judge_edge(
         } else {
             " (too few points to measure)"
         },
+        zone.arc_low / scale.spacing,
         rms / scale.spacing,
         scatter / scale.spacing,
         if straight { "straight" } else { "curved" }
@@ -792,8 +797,10 @@ fn judge_edge(
     // a noisy zone never turns a sharp obtuse edge into a fillet (seen: an octagonal prism's
     // edge at 6.0 spacings).
     // The limit grows with the noise (see `fillet_limit`).
-    let rounding =
-        (zone.raw - 0.5 * scale.pitch).max(0.0) * (0.5 * dihedral_deg.to_radians()).tan();
+    // The zone's reading, or the depth next to the edge (`arc_radius_low`), the larger.
+    let rounding = ((zone.raw - 0.5 * scale.pitch).max(0.0)
+        * (0.5 * dihedral_deg.to_radians()).tan())
+    .max(zone.arc_low);
     let limit = fillet_limit(params, scale);
     if rounding > limit {
         return Err(EdgeError::judged(
@@ -1188,7 +1195,7 @@ fn abnormal_zone(
     band: f64,
     dihedral_deg: f64,
     what: std::fmt::Arguments,
-) -> Option<(f64, f64, f64)> {
+) -> Option<(f64, f64, f64, f64)> {
     // The band's reach along the faces: a high percentile of the side points' distances (a
     // corner-region point of a failed side can sit anywhere).
     let mut s_side: Vec<f64> = res
@@ -1300,7 +1307,69 @@ fn abnormal_zone(
         zone.min(0.5 * band),
         rounding.min(0.5 * band),
         hidden.min(0.5 * band),
+        arc_radius_low(&means, &cnt, w, sigma, dihedral_deg),
     ))
+}
+
+/// χ² above its minimum within which a rounding's tangent length still fits the measured
+/// deviations (three standard errors of one parameter).
+const ARC_CHI2: f64 = 9.0;
+
+/// The smallest radius of a circular rounding between faces at the interior angle
+/// `dihedral_deg` whose bin means of the deviation from the faces ([`rounding_bin_mean`])
+/// fit the measured ones (`means`, `cnt` points each, noise `sigma`, bins `w` wide) within
+/// [`ARC_CHI2`] of the best fit; 0 when no rounding fits as well as one (a sharp edge) or
+/// nothing was measured.
+///
+/// Why: the zone's outer end is where the deviation sinks into the noise, and an arc leaves
+/// its tangent as the square of the distance: a fillet of radius R at σ is seen over its
+/// inner part only, and the zone read a fillet of 9 spacings as a rounding of 5 (seed 1's
+/// r063 of `bench --random 100`, noise 0.01 h; r065, two fillets of 13 and 19 h, as
+/// roundings of 3–5 h: 143° "edges" through the middle of the fillets, edge precision
+/// 0.971). The depth next to the edge fixes the radius whatever the noise hides farther out:
+/// a rounding of radius R at the interior angle β lies R (1/sin(β/2) − 1) inside the faces'
+/// line.
+fn arc_radius_low(
+    means: &[Option<f64>],
+    cnt: &[usize],
+    w: f64,
+    sigma: f64,
+    dihedral_deg: f64,
+) -> f64 {
+    if !(sigma > 0.0 && w > 0.0) {
+        return 0.0;
+    }
+    let bins: Vec<(f64, f64, f64)> = means
+        .iter()
+        .zip(cnt)
+        .enumerate()
+        .filter_map(|(b, (m, &n))| m.map(|m| (b as f64 * w, m, n as f64)))
+        .collect();
+    if bins.is_empty() {
+        return 0.0;
+    }
+    let chi2 = |t: f64| {
+        bins.iter()
+            .map(|&(a, m, n)| n * (m - rounding_bin_mean(t, dihedral_deg, a, w)).powi(2))
+            .sum::<f64>()
+            / (sigma * sigma)
+    };
+    // Tangent lengths from a quarter bin to four times the bins' reach, 2 % apart, and none.
+    let reach = 4.0 * means.len() as f64 * w;
+    let mut grid = vec![0.0];
+    let mut t = 0.25 * w;
+    while t <= reach {
+        grid.push(t);
+        t *= 1.02;
+    }
+    let fits: Vec<f64> = grid.iter().map(|&t| chi2(t)).collect();
+    let best = fits.iter().copied().fold(f64::INFINITY, f64::min);
+    let low = grid
+        .iter()
+        .zip(&fits)
+        .find(|&(_, &c)| c <= best + ARC_CHI2)
+        .map_or(0.0, |(&t, _)| t);
+    low * (0.5 * dihedral_deg.to_radians()).clamp(0.05, 1.52).tan()
 }
 
 /// A measured zone holds at least this share of the deviation a circular rounding as wide
@@ -1851,6 +1920,37 @@ mod tests {
                 );
             }
         }
+    }
+
+    #[test]
+    fn issue17_arc_radius_low_reads_a_fillet_from_its_depth_next_to_the_edge() {
+        // Seed 1's r065: fillets at 143° read as roundings of 3–5 spacings by their zone.
+        // Bins 0.25 wide, 30 points each, σ = 0.1, a deterministic ±σ/√30 wobble on each
+        // bin's mean; the zone test would see only the bins deviating by 0.055 or more.
+        let (w, sigma, n) = (0.25, 0.1, 30usize);
+        for (deg, radius) in [(143.0f64, 8.0f64), (120.0, 4.0), (90.0, 2.0)] {
+            let t = radius / (0.5 * deg.to_radians()).tan();
+            let means: Vec<Option<f64>> = (0..16)
+                .map(|b| {
+                    let wobble = if b % 2 == 0 { 1.0 } else { -1.0 } * sigma / (n as f64).sqrt();
+                    Some(rounding_bin_mean(t, deg, b as f64 * w, w) + wobble)
+                })
+                .collect();
+            let low = arc_radius_low(&means, &[n; 16], w, sigma, deg);
+            assert!(
+                low > 0.6 * radius && low <= 1.02 * radius,
+                "{deg}°, R {radius}: lower bound {low}"
+            );
+        }
+        // A sharp edge: means within noise of zero allow no rounding but a small one.
+        let flat: Vec<Option<f64>> = (0..16)
+            .map(|b| Some(if b % 2 == 0 { 0.01 } else { -0.01 }))
+            .collect();
+        let low = arc_radius_low(&flat, &[30; 16], 0.25, 0.1, 143.0);
+        assert!(low < 0.5, "sharp edge: {low}");
+        // Nothing measured, or no noise to weigh it by: no reading.
+        assert_eq!(arc_radius_low(&[None; 4], &[0; 4], 0.25, 0.1, 90.0), 0.0);
+        assert_eq!(arc_radius_low(&flat, &[30; 16], 0.25, 0.0, 90.0), 0.0);
     }
 
     /// Per-bin (sum, count) of 100 points a bin whose mean is `mean(b)`.

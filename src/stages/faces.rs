@@ -51,7 +51,7 @@ use std::collections::VecDeque;
 use rayon::prelude::*;
 
 use crate::geometry::moments::{add_moments, pca_from_moments, spread_along};
-use crate::geometry::{dot, neg, solve3, sub};
+use crate::geometry::{dot, neg, parabola_curvature, sub};
 use crate::neighbours::Grid;
 use crate::stages::features::{Features, LocalScale, Scale};
 
@@ -685,35 +685,17 @@ fn retain_planes(planes: &mut Vec<Plane>, label: &mut [u32], keep: &[bool]) {
 /// neighbourhoods wide; and all points tell the curvature, not the middle half's.
 fn bend_across(positions: &[[f64; 3]], ids: &[u32], plane: &Plane) -> (f64, f64) {
     let (w, across) = width(positions, ids, plane);
-    let w = w.max(1e-12);
-    // Normal equations of the parabola, in x scaled by the width (well conditioned).
-    let mut a = [[0.0f64; 3]; 3];
-    let mut r = [0.0f64; 3];
-    let mut zz = 0.0;
-    for &i in ids {
-        let d = sub(positions[i as usize], plane.centroid);
-        let x = dot(d, across) / w;
-        let z = dot(d, plane.normal);
-        let f = [1.0, x, x * x];
-        for j in 0..3 {
-            for k in 0..3 {
-                a[j][k] += f[j] * f[k];
-            }
-            r[j] += f[j] * z;
-        }
-        zz += z * z;
-    }
-    let n = ids.len() as f64;
-    let (Some(coef), Some(inv_col)) = (solve3(&a, &r), solve3(&a, &[0.0, 0.0, 1.0])) else {
-        return (0.0, f64::INFINITY);
-    };
-    // Residual variance: Σz² − coefᵀ·r (least squares), over n − 3 degrees of freedom.
-    let res =
-        ((zz - (coef[0] * r[0] + coef[1] * r[1] + coef[2] * r[2])) / (n - 3.0).max(1.0)).max(0.0);
-    // z = c' (x/w)²: the slope 2c'x/w² changes by 2c'/w over the width.
-    let turn = (2.0 * coef[2] / w).abs();
-    let se = 2.0 * (res * inv_col[2].max(0.0)).sqrt() / w;
-    (turn, se)
+    let samples: Vec<(f64, f64)> = ids
+        .iter()
+        .map(|&i| {
+            let d = sub(positions[i as usize], plane.centroid);
+            (dot(d, across), dot(d, plane.normal))
+        })
+        .collect();
+    // z = c·x²: the slope 2c·x changes by 2c·w over the width.
+    parabola_curvature(&samples).map_or((0.0, f64::INFINITY), |(c, se)| {
+        ((2.0 * c * w).abs(), 2.0 * se * w)
+    })
 }
 
 /// A narrow face turns across it by at most this many degrees (see [`curved_strip`]): a strip

@@ -28,7 +28,9 @@
 
 use rayon::prelude::*;
 
-use crate::geometry::{add, axpy, cross, dot, norm, point_segment, scale as scale_by, sub};
+use crate::geometry::{
+    add, axpy, cross, dot, norm, parabola_curvature, point_segment, scale as scale_by, sub,
+};
 use crate::neighbours::Grid;
 use crate::stages::edges::{EdgeParams, fillet_limit};
 use crate::stages::faces::{Faces, NO_FACE};
@@ -72,6 +74,14 @@ const SAME_EDGE: f64 = 1.5;
 /// less across an oblique face), 80–100 spacings from any edge of the part. A part's 160°
 /// edge at σ = 0.2 spacing needs faces 23 spacings wide.
 const STRIP_SIGMAS: f64 = 40.0;
+
+/// Narrow faces flat across (`flat_across`) overrule the strip rule only where they turn by
+/// this many degrees or more: the facets of a curved patch are flat too, and a CAD mesh
+/// scanned as it is has facet creases up to 32° that are no sharp edge of its part (the
+/// anchor of `bench --cad`: four such creases reported, 25–32°, 8–26 spacings from any sharp
+/// edge, while its narrow faces' real edges turn by 53–91°). A hole of up to six sides turns
+/// by 60° at a vertex on average.
+const NARROW_MIN_TURN: f64 = 45.0;
 
 /// The edges where two planar faces meet along a stretch the scan follows, beyond those
 /// between plane corners (`existing`); see the module comment.
@@ -426,7 +436,28 @@ fn pair_stretches(
         // candidates at the line may see a quieter face (a grazing face of a structured-light
         // view is smoother than the one facing the camera).
         let wide = [&pa, &pb].map(|p| STRIP_SIGMAS * p.noise.max(local.noise) / turn.max(1e-3));
-        if !reach_beyond(grid, faces, pair, mid, d, wide, step, 3.0 * r) {
+        let reaches = reach_beyond(grid, faces, pair, mid, d, wide, step, 3.0 * r);
+        if !reaches
+            && turn.to_degrees() >= NARROW_MIN_TURN
+            && flat_across(
+                positions,
+                grid,
+                faces,
+                pair,
+                &traces,
+                [start, end],
+                wide,
+                turn,
+            )
+        {
+            tracing::trace!(
+                "pair edge {pair:?} at {mid:?}: turn {:.1}°, faces narrower than {:.1} or {:.1} \
+                 spacings, flat across: narrow planar faces",
+                turn.to_degrees(),
+                wide[0] / step,
+                wide[1] / step
+            );
+        } else if !reaches {
             tracing::trace!(
                 "pair edge {pair:?} at {mid:?}: a face narrower than {:.1} or {:.1} spacings, a \
                  strip of a smooth surface",
@@ -524,6 +555,65 @@ fn off_crease(
     });
     let share = wrong as f64 / told.max(1) as f64;
     (told >= 10 && share > MISPLACED).then_some(share)
+}
+
+/// Whether both faces of `pair` are flat across their widths beside the edge from `ends[0]`
+/// to `ends[1]` (`traces`: the faces' directions away from it), so that a face narrower than
+/// [`STRIP_SIGMAS`] asks is a narrow planar face (a small hole's wall, a narrow step), not a
+/// strip of a smooth surface. Strips of a surface of radius R, each w wide, turn by about
+/// w/R to each other and sag across as u²/(2R): a parabola fitted across each face's points
+/// (`geometry::parabola_curvature`) finds the coefficient 1/(2R) = `turn / (2(x̄₀ + x̄₁))`
+/// there (x̄: how far each face's points lie from the line on average), where a planar face
+/// gives zero within its standard error. Hundreds of points tell the two apart
+/// where their RMS cannot: a 6-sided hole's wall 4.8 spacings wide at σ = 0.12 spacing fails
+/// the strip width (40σ/φ = 5.3 spacings at its 53° turn) while its curvature is 0 ± 0.004
+/// per spacing against the 0.1 a strip would show (seed 2's r012 of `bench --random 100`:
+/// three of the hole's six edges missed).
+///
+/// A face is flat when its coefficient lies within half the strips' and the strips' is at
+/// least four standard errors (a handful of points cannot tell, and then the strip rule
+/// stands).
+#[allow(clippy::too_many_arguments)]
+fn flat_across(
+    positions: &[[f64; 3]],
+    grid: &Grid,
+    faces: &Faces,
+    pair: [u32; 2],
+    traces: &[[f64; 3]; 2],
+    ends: [[f64; 3]; 2],
+    wide: [f64; 2],
+    turn: f64,
+) -> bool {
+    let len = norm(sub(ends[1], ends[0]));
+    if len.is_nan() || len <= 0.0 || turn.is_nan() || turn <= 0.0 {
+        return false;
+    }
+    let u = scale_by(sub(ends[1], ends[0]), 1.0 / len);
+    let reach = wide[0].max(wide[1]);
+    let mut samples: [Vec<(f64, f64)>; 2] = [Vec::new(), Vec::new()];
+    grid.for_each_near_segment(ends[0], ends[1], reach, |j| {
+        let Some(k) = pair.iter().position(|&f| f == faces.label[j as usize]) else {
+            return;
+        };
+        let p = positions[j as usize];
+        let w = sub(p, ends[0]);
+        let along = dot(w, u);
+        let across = dot(w, traces[k]);
+        if (0.0..=len).contains(&along) && (0.0..=reach).contains(&across) {
+            samples[k].push((across, faces.planes[pair[k] as usize].distance(p)));
+        }
+    });
+    // Strips of a surface of radius R whose centres lie x̄₀ and x̄₁ from their crease (along
+    // them) turn by (x̄₀ + x̄₁)/R: a band of candidates between them widens both.
+    let mean = |s: &[(f64, f64)]| s.iter().map(|x| x.0).sum::<f64>() / s.len().max(1) as f64;
+    let centres = mean(&samples[0]) + mean(&samples[1]);
+    if centres.is_nan() || centres <= 0.0 {
+        return false;
+    }
+    let strip = 0.5 * turn / centres;
+    samples.iter().all(|s| {
+        parabola_curvature(s).is_some_and(|(c, se)| c.abs() < 0.5 * strip && 4.0 * se < strip)
+    })
 }
 
 /// Whether each face `pair[k]` has points at least `wide[k]` from the line through `mid`
@@ -684,6 +774,92 @@ mod tests {
     /// Distance of `p` from the y axis (the wedge's edge line).
     fn off_axis(p: [f64; 3]) -> f64 {
         (p[0] * p[0] + p[2] * p[2]).sqrt()
+    }
+
+    /// Two faces 4.8 wide meeting along the y axis at `turn_deg`, sampled every 0.2 across
+    /// (from 0.4 off the line) and 0.25 along y in [0, 20], each point off its face by a
+    /// deterministic ±`sigma`; `sag(x)` bends each face along its normal at x across it.
+    /// Returns `flat_across` on the stretch y in [2, 18].
+    fn strips_flat(turn_deg: f64, sigma: f64, sag: impl Fn(f64) -> f64) -> bool {
+        let half = 0.5 * (180.0 - turn_deg).to_radians();
+        let dirs = [
+            [half.cos(), 0.0, half.sin()],
+            [half.cos(), 0.0, -half.sin()],
+        ];
+        // Normals pointing away from the material below the xy-plane's bisector.
+        let normals = [
+            [-half.sin(), 0.0, half.cos()],
+            [-half.sin(), 0.0, -half.cos()],
+        ];
+        let mut positions = Vec::new();
+        let mut label = Vec::new();
+        let mut k = 0usize;
+        for f in 0..2 {
+            for i in 0..23 {
+                let x = 0.4 + 0.2 * i as f64;
+                for j in 0..=80 {
+                    k += 1;
+                    let noise = if (k * 7919) % 13 < 6 { sigma } else { -sigma };
+                    let off = noise + sag(x);
+                    let p = axpy(
+                        axpy([0.0, 0.25 * j as f64, 0.0], x, dirs[f]),
+                        off,
+                        normals[f],
+                    );
+                    positions.push(p);
+                    label.push(f as u32);
+                }
+            }
+        }
+        let plane = |f: usize| Plane {
+            normal: normals[f],
+            centroid: scale_by(dirs[f], 2.6),
+            points: 23 * 81,
+            rms: sigma,
+            spacing: 0.2,
+            pitch: 0.2,
+            noise: sigma,
+        };
+        let faces = Faces {
+            label,
+            planes: vec![plane(0), plane(1)],
+        };
+        let grid = Grid::new(&positions, 1.0).unwrap();
+        flat_across(
+            &positions,
+            &grid,
+            &faces,
+            [0, 1],
+            &dirs,
+            [[0.0, 2.0, 0.0], [0.0, 18.0, 0.0]],
+            [10.0, 10.0],
+            turn_deg.to_radians(),
+        )
+    }
+
+    #[test]
+    fn issue17_a_narrow_planar_face_is_flat_across_and_a_strip_of_an_arc_is_not() {
+        // Seed 2's r012: a hexagonal hole's walls 4.8 spacings wide, turning by 53° at
+        // σ = 0.12 spacing, narrower than the strip rule's 40σ/φ = 5.2: planar all the same.
+        assert!(strips_flat(53.0, 0.12, |_| 0.0));
+        // Rounded ends (the hole's own edges bend the outer 0.6 of each face by up to 0.1)
+        // do not make it a strip.
+        let rounded = |x: f64| {
+            let s = (x - 0.4).min(4.8 - x).max(0.0);
+            if s < 0.6 {
+                (0.6 - s).powi(2) / 3.6
+            } else {
+                0.0
+            }
+        };
+        assert!(strips_flat(53.0, 0.12, rounded));
+        // Strips of an arc: centres 2.6 from the crease turn by 53° when R = 5.2 / φ; each
+        // sags by (x − 2.6)²/(2R) about its chord.
+        let r = 5.2 / 53f64.to_radians();
+        assert!(!strips_flat(53.0, 0.12, |x| -(x - 2.6).powi(2) / (2.0 * r)));
+        assert!(!strips_flat(53.0, 0.12, |x| (x - 2.6).powi(2) / (2.0 * r)));
+        // Too much noise to tell: the strip rule stands.
+        assert!(!strips_flat(53.0, 1.5, |_| 0.0));
     }
 
     #[test]
