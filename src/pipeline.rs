@@ -282,6 +282,7 @@ pub fn process(cloud: Cloud, settings: &Settings, clock: &mut impl LapClock) -> 
         &segments,
         &fits,
         &settings.corners,
+        &settings.edges,
         &settings.fit,
         settings.seed,
     );
