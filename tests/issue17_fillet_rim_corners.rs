@@ -9,7 +9,7 @@
 //! 136 of 166 spurious corners over five seeds were in parts with fillets. The corner stage
 //! now asks the line where the two edges' other faces meet (the third edge a corner of the
 //! part would have): the scan must hug it as a sharp edge's rounding does, and a fillet
-//! keeps it farther off (`plane_corners::rounded_crease`). Each of these draws failed only
+//! keeps it farther off (`faces::rounded_crease`). Each of these draws failed only
 //! corner precision, with one or two such corners.
 
 mod run_common;

@@ -4,7 +4,7 @@
 //! rounding keeps the scan off its two faces' line by less than each point's allowance, and
 //! the corners where that line met the other faces, and the edge between them, were
 //! reported. The median of the points near the line shows the fillet
-//! (`plane_corners::rounded_crease`, now also judged along a corner's edges). Run as the
+//! (`faces::rounded_crease`, now also judged along a corner's edges). Run as the
 //! real binary on draws of `bench --random 100 --seed 1`, scored by the bench:
 //!
 //! - r003 (35,697 points, σ 0.06 h, a fillet of 7.4 h at 109°): an edge of 56.7 h along the

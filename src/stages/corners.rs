@@ -21,9 +21,8 @@ use crate::geometry::{
 };
 use crate::left_out::{LeftOut, Reason};
 use crate::stages::edges::{EdgeParams, EdgeResult, Surface, fillet_limit};
-use crate::stages::faces::Plane;
+use crate::stages::faces::{Plane, rounded_crease};
 use crate::stages::features::Scale;
-use crate::stages::plane_corners::rounded_crease;
 use crate::stages::segment::Segments;
 
 /// Settings of the corner stage (validated by `config`).
@@ -136,7 +135,7 @@ const CORNER_ON_SCAN_TWO_EDGES: f64 = 1.0;
 
 /// Where a corner of two edges would have its third: how far inside the line of the two
 /// edges' other faces the scan turns, when more than the widest rounding of a sharp edge
-/// explains (`plane_corners::rounded_crease`); `None` when it hugs the line (a sharp third
+/// explains (`faces::rounded_crease`); `None` when it hugs the line (a sharp third
 /// edge the edge stage missed) or nothing tells.
 ///
 /// Why: a straight edge of a cap running into a fillet of the walls meets the next cap edge

@@ -51,7 +51,7 @@ use std::collections::VecDeque;
 use rayon::prelude::*;
 
 use crate::geometry::moments::{add_moments, pca_from_moments, spread_along};
-use crate::geometry::{dot, neg, parabola_curvature, sub};
+use crate::geometry::{add, dot, neg, norm, parabola_curvature, scale as scale_by, sub};
 use crate::neighbours::Grid;
 use crate::stages::features::{Features, LocalScale, Scale};
 
@@ -64,6 +64,84 @@ const NORMAL_TOLERANCE: f64 = 15.0;
 /// `PLANE_SLACK` spacings, for noise-free scans).
 const PLANE_SIGMAS: f64 = 3.0;
 const PLANE_SLACK: f64 = 0.05;
+
+/// Points within this many spacings of the bisector of two faces (across the
+/// edge) show how far inside the planes' line the scan turns.
+const CREASE_CORE: f64 = 1.0;
+/// The fewest such points that judge a crease.
+pub(crate) const CREASE_MIN_POINTS: usize = 10;
+
+/// How far inside the faces' line the scan turns along the segment `start`–`end` (the
+/// median excess below), when more than a rounding of radius `rounding` would keep it
+/// (`None` when it turns within that, or too few points near the line tell). In the edge's
+/// profile a point's depth along the bisector of the traces, less what the wedge itself
+/// gives at its distance across the bisector, is the rounding's excess: 0 on a sharp wedge,
+/// `ρ (1/sin(θ/2) − 1)` at the crease of a rounding of radius ρ at interior angle θ,
+/// falling off across it. Over the points within `CREASE_CORE` spacings of the bisector,
+/// the median of each point's excess beyond the widest rounding's at its offset must stay
+/// within two standard errors of the median. Why: planar strips of a wide fillet (its radius past
+/// the widest rounding) meet at creases whose line lies off the scan by about 2/3 of R φ²/8
+/// (turn φ, strips fitted as chords), too little for `plane_corners::hugs`, whose gap allows
+/// three noise sigmas per point. Seen: 157° "edges" of a 37-spacing fillet in one
+/// structured-light view of a random part, between a grazing face and fillet strips of
+/// 70–124 points.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn rounded_crease(
+    positions: &[[f64; 3]],
+    grid: &Grid,
+    planes: [&Plane; 2],
+    traces: &[[f64; 3]; 2],
+    start: [f64; 3],
+    end: [f64; 3],
+    local: &Scale,
+    rounding: f64,
+) -> Option<f64> {
+    let sum = add(traces[0], traces[1]);
+    let across = sub(traces[0], traces[1]);
+    let (ls, la) = (norm(sum), norm(across));
+    if ls < 1e-6 || la < 1e-6 {
+        return None;
+    }
+    let (bis, acr) = (scale_by(sum, 1.0 / ls), scale_by(across, 1.0 / la));
+    // Half the interior angle: the traces are unit vectors θ apart.
+    let (sin_half, cos_half) = (0.5 * la, 0.5 * ls);
+    let core = CREASE_CORE * local.spacing;
+    // The excess of a rounding of radius ρ at offset v across the bisector: its arc (centre
+    // ρ/sin(θ/2) inside the line) less the wedge, 0 beyond its tangent points.
+    let widest = |v: f64| {
+        if v.abs() >= rounding * cos_half {
+            return 0.0;
+        }
+        rounding / sin_half - (rounding * rounding - v * v).sqrt() - v.abs() * cos_half / sin_half
+    };
+    let (mut excess, mut beyond): (Vec<f64>, Vec<f64>) = (Vec::new(), Vec::new());
+    // Only the points beside the segment, not beyond its ends: there other faces meet it
+    // (a corner's third face, its blend).
+    let length = norm(sub(end, start));
+    let along = scale_by(sub(end, start), 1.0 / length.max(f64::MIN_POSITIVE));
+    grid.for_each_near_segment(start, end, core.max(rounding), |i| {
+        let w = sub(positions[i as usize], start);
+        let v = dot(w, acr);
+        let t = dot(w, along);
+        if v.abs() > core || t < 0.0 || t > length {
+            return;
+        }
+        let e = dot(w, bis) - v.abs() * cos_half / sin_half;
+        excess.push(e);
+        beyond.push(e - widest(v));
+    });
+    if excess.len() < CREASE_MIN_POINTS {
+        return None;
+    }
+    let median = |x: &mut Vec<f64>| {
+        x.sort_unstable_by(f64::total_cmp);
+        x[x.len() / 2]
+    };
+    let sigma = planes[0].noise.max(planes[1].noise).max(local.noise) / sin_half;
+    // The median's standard error is 1.25 σ/√n for normal errors.
+    let slack = 2.5 * sigma / (excess.len() as f64).sqrt();
+    (median(&mut beyond) > slack).then(|| median(&mut excess))
+}
 
 /// How far off a face's plane a point may lie and join it, at noise sigma `noise` and
 /// spacing `spacing`.

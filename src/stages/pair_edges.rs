@@ -33,11 +33,10 @@ use crate::geometry::{
 };
 use crate::neighbours::Grid;
 use crate::stages::edges::{EdgeParams, fillet_limit};
-use crate::stages::faces::{Faces, NO_FACE};
+use crate::stages::faces::{Faces, NO_FACE, rounded_crease};
 use crate::stages::features::{Features, LocalScale};
 use crate::stages::plane_corners::{
-    FaceCorner, FaceEdge, MIN_FACE_ANGLE, faces_seen, hug_gap, hugs, intersect, rounded_crease,
-    traces, voters,
+    FaceCorner, FaceEdge, MIN_FACE_ANGLE, faces_seen, hug_gap, hugs, intersect, traces, voters,
 };
 
 /// A face pair named by a candidate (its id).
