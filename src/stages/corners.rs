@@ -17,11 +17,11 @@ use rayon::prelude::*;
 
 use crate::fit::{FitParams, fit_corner_3d};
 use crate::geometry::{
-    add, cross, dot, nearest_point_to_lines, norm, pca_line, point_line_distance, sub,
+    add, cross, dot, nearest_point_to_lines, norm, pca_line, point_line_distance, sub, unit,
 };
 use crate::left_out::{LeftOut, Reason};
 use crate::stages::edges::{EdgeParams, EdgeResult, Surface, fillet_limit};
-use crate::stages::faces::{Plane, rounded_crease};
+use crate::stages::faces::rounded_crease;
 use crate::stages::features::Scale;
 use crate::stages::segment::Segments;
 
@@ -203,32 +203,16 @@ fn filleted_third_edge(
     let r = scale.radius;
     let start = add(corner, d.map(|x| x * r));
     let end = add(corner, d.map(|x| x * 4.0 * r));
-    let plane = |n: [f64; 3]| Plane {
-        normal: n,
-        centroid: corner,
-        points: 0,
-        rms: 0.0,
-        spacing: scale.spacing,
-        pitch: scale.pitch,
-        noise: scale.noise,
-    };
-    let (pa, pb) = (plane(a.normals[oa]), plane(b.normals[ob]));
     rounded_crease(
         surface.positions,
         surface.grid,
-        [&pa, &pb],
+        scale.noise,
         &traces,
         start,
         end,
         scale,
         fillet_limit(edge_params, scale),
     )
-}
-
-/// `v` scaled to unit length; `None` for a (near) zero vector.
-fn unit(v: [f64; 3]) -> Option<[f64; 3]> {
-    let l = norm(v);
-    (l > 1e-9).then(|| v.map(|x| x / l))
 }
 
 /// The line through the (up to six) rectified points of one edge nearest to `near`: where the
@@ -346,36 +330,24 @@ fn fit_vertex(
             )
         })
     };
+    // A corner of two edges whose third would be a fillet (see `filleted_third_edge`).
+    let filleted = |p: [f64; 3]| {
+        let depth = (ids.len() == 2)
+            .then(|| filleted_third_edge(surface, edges, &ids, p, scale, edge_params))
+            .flatten()?;
+        Some(format!(
+            "corner {v}: its edges' other faces meet through a rounding wider than a sharp \
+             edge's (the scan stays {:.1} spacings inside their line): a fillet between them, \
+             whose rim their edges follow, not a corner",
+            depth / scale.spacing
+        ))
+    };
     let refs: Vec<&[[f64; 3]]> = sides.iter().map(|s| s.as_slice()).collect();
     let failure = match fit_corner_3d(&refs, approx, fit, rng) {
         Ok(f) => match off(f.searches.pso.point) {
             None if let Some(why) = far(f.searches.pso.point) => why,
-            None if let Some(why) = unsupported(f.searches.pso.point) => {
-                return CornerOutcome {
-                    corner: None,
-                    left_out: Some(LeftOut::vertex(Reason::VirtualCorner, why)),
-                };
-            }
-            None if let Some(why) = (ids.len() == 2)
-                .then(|| {
-                    filleted_third_edge(
-                        surface,
-                        edges,
-                        &ids,
-                        f.searches.pso.point,
-                        scale,
-                        edge_params,
-                    )
-                })
-                .flatten()
-                .map(|depth| {
-                    format!(
-                        "corner {v}: its edges' other faces meet through a rounding wider than a \
-                         sharp edge's (the scan stays {:.1} spacings inside their line): a \
-                         fillet between them, whose rim their edges follow, not a corner",
-                        depth / scale.spacing
-                    )
-                }) =>
+            None if let Some(why) =
+                unsupported(f.searches.pso.point).or_else(|| filleted(f.searches.pso.point)) =>
             {
                 return CornerOutcome {
                     corner: None,

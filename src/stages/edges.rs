@@ -378,6 +378,19 @@ struct Zone {
     arc_low: f64,
 }
 
+/// What [`abnormal_zone`] reads from one pass's pooled residuals (lengths in model units).
+#[derive(Debug, Clone, Copy, Default)]
+struct ZoneReading {
+    /// The zone's half-width.
+    zone: f64,
+    /// The part of it a rounding accounts for.
+    rounding: f64,
+    /// The widest zone these bins could have missed.
+    hidden: f64,
+    /// The smallest rounding radius the bins allow.
+    arc_low: f64,
+}
+
 /// Fits one run: slab passes until the abnormal zone settles, then decides whether what was
 /// fitted is a sharp edge (see `keep_edge_slabs` and `judge_edge`).
 #[allow(clippy::too_many_arguments)]
@@ -559,9 +572,14 @@ fn settle_zone(
             median_angle(&pass.slabs),
             format_args!("edge {} after a pass with zone {:.4}", ctx.k, zone.used),
         );
-        kept_rounding = Some(measured.map(|m| m.1));
+        kept_rounding = Some(measured.map(|m| m.rounding));
         zone.known |= measured.is_some();
-        let (raw, rounding, hidden, arc_low) = measured.unwrap_or((0.0, 0.0, 0.0, 0.0));
+        let ZoneReading {
+            zone: raw,
+            rounding,
+            hidden,
+            arc_low,
+        } = measured.unwrap_or_default();
         zone.hidden = hidden;
         zone.arc_low = zone.arc_low.max(arc_low);
         // Fitting keeps half a bin more out: a side point must be clearly on its face.
@@ -601,7 +619,7 @@ fn settle_zone(
                 median_angle(&pass.slabs),
                 format_args!("edge {} kept with zone {:.4}", ctx.k, zone.used),
             )
-            .map(|m| m.1)
+            .map(|m| m.rounding)
         });
         if let Some(rounding) = rounding {
             zone.rounding = rounding.min(zone.raw);
@@ -1188,14 +1206,15 @@ const ZONE_START: usize = 2;
 /// stretch deviates (a sharp edge); `None` when too few points to tell. Beside it, the part
 /// of it a rounding accounts for (see [`rounding_share`]) and the widest
 /// zone of a rounding between faces at `dihedral_deg` that these bins could not have shown
-/// (see [`hidden_zone`]).
+/// (see [`hidden_zone`]), and the smallest rounding radius they allow (see
+/// [`arc_radius_low`]).
 fn abnormal_zone(
     res: &[(f64, f64, bool)],
     scale: &Scale,
     band: f64,
     dihedral_deg: f64,
     what: std::fmt::Arguments,
-) -> Option<(f64, f64, f64, f64)> {
+) -> Option<ZoneReading> {
     // The band's reach along the faces: a high percentile of the side points' distances (a
     // corner-region point of a failed side can sit anywhere).
     let mut s_side: Vec<f64> = res
@@ -1303,12 +1322,12 @@ fn abnormal_zone(
             .collect::<Vec<_>>()
             .join(" ")
     );
-    Some((
-        zone.min(0.5 * band),
-        rounding.min(0.5 * band),
-        hidden.min(0.5 * band),
-        arc_radius_low(&means, &cnt, w, sigma, dihedral_deg),
-    ))
+    Some(ZoneReading {
+        zone: zone.min(0.5 * band),
+        rounding: rounding.min(0.5 * band),
+        hidden: hidden.min(0.5 * band),
+        arc_low: arc_radius_low(&means, &cnt, w, sigma, dihedral_deg),
+    })
 }
 
 /// χ² above its minimum within which a rounding's tangent length still fits the measured

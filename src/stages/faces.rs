@@ -73,7 +73,8 @@ pub(crate) const CREASE_MIN_POINTS: usize = 10;
 
 /// How far inside the faces' line the scan turns along the segment `start`–`end` (the
 /// median excess below), when more than a rounding of radius `rounding` would keep it
-/// (`None` when it turns within that, or too few points near the line tell). In the edge's
+/// (`None` when it turns within that, or too few points near the line tell); `faces_noise`
+/// is the noisier of the two faces' sigmas. In the edge's
 /// profile a point's depth along the bisector of the traces, less what the wedge itself
 /// gives at its distance across the bisector, is the rounding's excess: 0 on a sharp wedge,
 /// `ρ (1/sin(θ/2) − 1)` at the crease of a rounding of radius ρ at interior angle θ,
@@ -89,7 +90,7 @@ pub(crate) const CREASE_MIN_POINTS: usize = 10;
 pub(crate) fn rounded_crease(
     positions: &[[f64; 3]],
     grid: &Grid,
-    planes: [&Plane; 2],
+    faces_noise: f64,
     traces: &[[f64; 3]; 2],
     start: [f64; 3],
     end: [f64; 3],
@@ -137,7 +138,7 @@ pub(crate) fn rounded_crease(
         x.sort_unstable_by(f64::total_cmp);
         x[x.len() / 2]
     };
-    let sigma = planes[0].noise.max(planes[1].noise).max(local.noise) / sin_half;
+    let sigma = faces_noise.max(local.noise) / sin_half;
     // The median's standard error is 1.25 σ/√n for normal errors.
     let slack = 2.5 * sigma / (excess.len() as f64).sqrt();
     (median(&mut beyond) > slack).then(|| median(&mut excess))

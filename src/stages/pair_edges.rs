@@ -435,20 +435,27 @@ fn pair_stretches(
         // candidates at the line may see a quieter face (a grazing face of a structured-light
         // view is smoother than the one facing the camera).
         let wide = [&pa, &pb].map(|p| STRIP_SIGMAS * p.noise.max(local.noise) / turn.max(1e-3));
-        let reaches = reach_beyond(grid, faces, pair, mid, d, wide, step, 3.0 * r);
-        if !reaches
-            && turn.to_degrees() >= NARROW_MIN_TURN
-            && flat_across(
-                positions,
-                grid,
-                faces,
-                pair,
-                &traces,
-                [start, end],
-                wide,
-                turn,
-            )
-        {
+        if !reach_beyond(grid, faces, pair, mid, d, wide, step, 3.0 * r) {
+            let flat = turn.to_degrees() >= NARROW_MIN_TURN
+                && flat_across(
+                    positions,
+                    grid,
+                    faces,
+                    pair,
+                    &traces,
+                    [start, end],
+                    wide,
+                    turn,
+                );
+            if !flat {
+                tracing::trace!(
+                    "pair edge {pair:?} at {mid:?}: a face narrower than {:.1} or {:.1} spacings, \
+                     a strip of a smooth surface",
+                    wide[0] / step,
+                    wide[1] / step
+                );
+                continue;
+            }
             tracing::trace!(
                 "pair edge {pair:?} at {mid:?}: turn {:.1}°, faces narrower than {:.1} or {:.1} \
                  spacings, flat across: narrow planar faces",
@@ -456,20 +463,12 @@ fn pair_stretches(
                 wide[0] / step,
                 wide[1] / step
             );
-        } else if !reaches {
-            tracing::trace!(
-                "pair edge {pair:?} at {mid:?}: a face narrower than {:.1} or {:.1} spacings, a \
-                 strip of a smooth surface",
-                wide[0] / step,
-                wide[1] / step
-            );
-            continue;
         }
         let rounding = fillet_limit(edges, &local);
         if let Some(depth) = rounded_crease(
             positions,
             grid,
-            [&pa, &pb],
+            pa.noise.max(pb.noise),
             &traces,
             start,
             end,
@@ -965,19 +964,11 @@ mod tests {
     }
 
     /// The crease test on the y axis for faces along ±x that bend down by half of
-    /// `turn_deg` each (a convex edge, its material below), their planes through the axis.
+    /// `turn_deg` each (a convex edge, its material below), their planes through the axis,
+    /// at noise 0.01.
     fn crease(positions: &[[f64; 3]], turn_deg: f64, rounding: f64) -> Option<f64> {
         let h = 0.5 * turn_deg.to_radians();
         let traces = [[h.cos(), 0.0, -h.sin()], [-h.cos(), 0.0, -h.sin()]];
-        let plane = |t: [f64; 3]| Plane {
-            normal: [t[2].abs() * t[0].signum(), 0.0, t[0].abs()],
-            centroid: scale_by(t, 5.0),
-            points: 1000,
-            rms: 0.0,
-            spacing: 0.2,
-            pitch: 0.2,
-            noise: 0.01,
-        };
         let grid = Grid::new(positions, 1.0).unwrap();
         let local = Scale {
             spacing: 0.2,
@@ -988,7 +979,7 @@ mod tests {
         rounded_crease(
             positions,
             &grid,
-            [&plane(traces[0]), &plane(traces[1])],
+            0.01,
             &traces,
             [0.0, 2.0, 0.0],
             [0.0, 18.0, 0.0],

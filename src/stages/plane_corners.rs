@@ -441,8 +441,8 @@ fn unfollowed_edge(
         };
         let rounded = || {
             let tr = [trace(na, nb), trace(nb, na)];
-            let pl = [&planes[ia], &planes[ib]];
-            rounded_crease(positions, grid, pl, &tr, start, end, scale, rounding).is_some()
+            let noise = planes[ia].noise.max(planes[ib].noise);
+            rounded_crease(positions, grid, noise, &tr, start, end, scale, rounding).is_some()
         };
         !hugged || rounded()
     })
