@@ -34,7 +34,9 @@
 //! narrow face that touch are joined (`merge_split_faces`). On `bench --random 100` (seeds
 //! 1–3) this took corner recall from 0.890–0.899 to 0.949–0.953; asking the points too
 //! and joining the pieces found 8–16 more of 1,305–1,517 matched corners per seed (33 on
-//! seed 53), edge recall up by 0.001–0.003.
+//! seed 53), edge recall up by 0.001–0.003. On scan lines the small neighbourhood is a few
+//! steps along the point's own line and the lines either side (`small_normals`): a disc of
+//! `REACH` spacings reaches across a wall a few lines wide.
 //!
 //! Refitting (`refine_planes`): once grown, each face's plane is fitted again to the points
 //! whose own normals agree with it within three times the face's median normal deviation.
@@ -51,7 +53,7 @@ use std::collections::VecDeque;
 use rayon::prelude::*;
 
 use crate::geometry::moments::{add_moments, pca_from_moments, spread_along};
-use crate::geometry::{add, dot, neg, norm, parabola_curvature, scale as scale_by, sub};
+use crate::geometry::{add, dot, neg, norm, parabola_curvature, pca_line, scale as scale_by, sub};
 use crate::neighbours::Grid;
 use crate::stages::features::{Features, LocalScale, Scale};
 
@@ -531,11 +533,11 @@ fn grow(
 /// every point of theirs is an edge candidate, because its neighbourhood, or its
 /// neighbours' normals, reach the faces beside it, so the first growth never sees them. Here
 /// the edge candidates near no face yet get normals from a neighbourhood of `REACH`
-/// spacings (`small_normals`), which stays on the narrow face from two spacings off its
-/// edges, and grow faces as before from those whose small neighbourhood is flat within
-/// noise. Such a face is bounded by candidates of its neighbours' edge bands, whose small
-/// normals turn away, so it is not asked to be closed; it must still fit its plane within
-/// noise and not fold.
+/// spacings (`small_normals`; on scan lines a few steps along three lines), which stays on
+/// the narrow face from two spacings off its edges, and grow faces as before from those
+/// whose small neighbourhood is flat within noise. Such a face is bounded by candidates of
+/// its neighbours' edge bands, whose small normals turn away, so it is not asked to be
+/// closed; it must still fit its plane within noise and not fold.
 fn narrow_faces(
     positions: &[[f64; 3]],
     full: &Grid,
@@ -882,9 +884,37 @@ fn principal_axes(
 /// variances (the features' own plane threshold).
 const SMALL_FLAT: f32 = 3.0;
 
-/// For each of `ids` (the points of `grid`), the PCA normal of its neighbours within `REACH`
-/// spacings among `grid`'s points, and that neighbourhood's out-of-plane variance in noise
-/// variances (infinite with fewer than six neighbours).
+/// A point lies on a scan line when its spacing (across the pattern) is at least this many
+/// pitches (along it) and the scan is one of lines: the median of that ratio over the
+/// points asked is at least `LINES_MEDIAN`.
+const LINE_RATIO: f64 = 3.0;
+const LINES_MEDIAN: f64 = 2.0;
+/// The line's direction there: the principal axis of the points within this many pitches (the
+/// next line lies at least `LINE_RATIO` pitches away), when it is at least `LINE_AXIS` times
+/// their spread across it.
+const LINE_STEP: f64 = 2.5;
+const LINE_AXIS: f64 = 3.0;
+/// A scan line's small neighbourhood reaches this many pitches along the line, on the point's
+/// own line (the points within `LINE_SAME` pitches of it) and on the nearest other lines (the
+/// points within `LINE_NEXT` times the nearest one's distance), and holds at least
+/// `LINE_OTHERS` points off its own line (one line leaves the plane undefined).
+const LINE_ALONG: f64 = 3.0;
+const LINE_SAME: f64 = 1.0;
+const LINE_NEXT: f64 = 1.5;
+const LINE_OTHERS: usize = 2;
+
+/// For each of `ids` (the points of `grid`), the PCA normal of its small neighbourhood among
+/// `grid`'s points, and that neighbourhood's out-of-plane variance in noise variances
+/// (infinite with fewer than six points, or on scan lines with fewer than `LINE_OTHERS` off
+/// the point's own line).
+///
+/// The small neighbourhood is the disc of `REACH` spacings, except on scan lines
+/// (`LINE_RATIO`): there the next line lies a spacing away, and where the lines cross a face
+/// that leans towards their planes, farther; a disc of two spacings then reaches across faces
+/// a few lines wide (a prism's side walls 2–6 lines wide under lines 8–9 mean spacings apart:
+/// `bench --random 100`, seed 1's r038, r039 and r099, whose walls grew no face). A few steps
+/// along the point's own line and along the nearest line on either side stay on such a face
+/// (both sides: two lines can lie on a strip along a rounding, three show its curve).
 fn small_normals(
     positions: &[[f64; 3]],
     scale: &LocalScale,
@@ -892,25 +922,100 @@ fn small_normals(
     grid: &Grid,
 ) -> (Vec<[f32; 3]>, Vec<f32>) {
     use rayon::prelude::*;
+    // A scan in lines has them everywhere: a few points whose spacing reads as lines on
+    // uniform sampling (beside its edges, under grazing noise) are none (seed 79's r056,
+    // lines 1.08 mean spacings apart, has 5 % of them).
+    let lines = {
+        let mut ratio: Vec<f64> = ids
+            .iter()
+            .map(|&i| {
+                let s = scale.at(i as usize);
+                s.spacing / s.pitch
+            })
+            .collect();
+        let mid = ratio.len() / 2;
+        !ratio.is_empty() && *ratio.select_nth_unstable_by(mid, f64::total_cmp).1 >= LINES_MEDIAN
+    };
     ids.par_iter()
         .map(|&i| {
             let i = i as usize;
             let Scale {
                 spacing: h,
+                pitch,
                 noise: s,
                 ..
             } = scale.at(i);
+            let p = positions[i];
             let mut m = [0.0; 10];
-            grid.for_each_within(positions[i], REACH * h, |_, d, _| add_moments(&mut m, d));
+            let along = (lines && h >= LINE_RATIO * pitch)
+                .then(|| line_direction(p, grid, LINE_STEP * pitch))
+                .flatten();
+            if let Some(t) = along {
+                let (reach, same) = (LINE_ALONG * pitch, LINE_SAME * pitch);
+                // (offset, distance from the point's line) of the points within reach along it.
+                let mut near: Vec<([f64; 3], f64)> = Vec::new();
+                grid.for_each_within(p, REACH * h, |_, d, d2| {
+                    let x = dot(d, t);
+                    if x.abs() <= reach {
+                        near.push((d, (d2 - x * x).max(0.0).sqrt()));
+                    }
+                });
+                // The nearest point off the line sets the side its line lies on.
+                let Some(&(first, next)) = near
+                    .iter()
+                    .filter(|&&(_, y)| y > same)
+                    .min_by(|a, b| a.1.total_cmp(&b.1))
+                else {
+                    return ([0.0; 3], f32::INFINITY);
+                };
+                let side = sub(first, scale_by(t, dot(first, t)));
+                let mut others = [0usize; 2];
+                for &(d, y) in &near {
+                    if y <= same || y <= LINE_NEXT * next {
+                        add_moments(&mut m, d);
+                        if y > same {
+                            others[usize::from(dot(d, side) < 0.0)] += 1;
+                        }
+                    }
+                }
+                // The lines on both sides: three lines tell a flat face from a strip along
+                // a rounding, which two lines can lie on.
+                if others.iter().any(|&k| k < LINE_OTHERS) {
+                    return ([0.0; 3], f32::INFINITY);
+                }
+            } else {
+                grid.for_each_within(p, REACH * h, |_, d, _| add_moments(&mut m, d));
+            }
             match pca_from_moments(&m) {
-                Some(p) if m[0] >= 6.0 => (
-                    p.normal.map(|c| c as f32),
-                    (p.eigenvalues[0] / (s * s).max(1e-6 * h * h)) as f32,
+                Some(pca) if m[0] >= 6.0 => (
+                    pca.normal.map(|c| c as f32),
+                    (pca.eigenvalues[0] / (s * s).max(1e-6 * h * h)) as f32,
                 ),
                 _ => ([0.0; 3], f32::INFINITY),
             }
         })
         .unzip()
+}
+
+/// The unit direction of the scan line through `p`: the principal axis of `grid`'s points
+/// within `reach` of it; `None` with fewer than three of them or when they do not lie along
+/// one line (see [`LINE_AXIS`]).
+fn line_direction(p: [f64; 3], grid: &Grid, reach: f64) -> Option<[f64; 3]> {
+    let mut offsets: Vec<[f64; 3]> = Vec::new();
+    grid.for_each_within(p, reach, |_, d, _| offsets.push(d));
+    if offsets.len() < 3 {
+        return None;
+    }
+    let all: Vec<usize> = (0..offsets.len()).collect();
+    let (c, t) = pca_line(&offsets, &all)?;
+    let (mut along, mut across) = (0.0, 0.0);
+    for &d in &offsets {
+        let v = sub(d, c);
+        let x = dot(v, t);
+        along += x * x;
+        across += (dot(v, v) - x * x).max(0.0);
+    }
+    (along > LINE_AXIS * LINE_AXIS * across).then_some(t)
 }
 
 /// The halves of a face on either side of its centroid, along either in-plane axis, lie on
@@ -1391,6 +1496,131 @@ mod tests {
         assert!(
             tilt <= 0.4 && height <= 0.05,
             "tilt {tilt:.3}° (all its points: {tilt_all:.3}°), height at the tangent {height:.4}"
+        );
+    }
+
+    /// A step scanned in lines: z = 0 for x in [0, 40], a wall x = 40 down to z = -15, then
+    /// z = -15 for x in [40, 80]; lines y = 6k (k = 0..20) run across the wall, sampled every
+    /// unit of arc length along each profile, noise sigma 0.05.
+    fn step_on_lines() -> (Vec<[f64; 3]>, LocalScale) {
+        let (gap, wall) = (6.0, 15.0);
+        let mut u = uniform(99);
+        let mut pts = Vec::new();
+        for k in 0..=20 {
+            let y = gap * k as f64;
+            // Arc length along the profile: top (40), wall (15), bottom (40).
+            let mut s = 0.5;
+            while s < 95.0 {
+                let (x, z) = if s < 40.0 {
+                    (s, 0.0)
+                } else if s < 40.0 + wall {
+                    (40.0, -(s - 40.0))
+                } else {
+                    (s - wall, -wall)
+                };
+                let n = 0.05 * 3.46 * u();
+                // The noise along each face's normal.
+                let p = if (40.0..40.0 + wall).contains(&s) {
+                    [x + n, y + 0.2 * u(), z]
+                } else {
+                    [x, y + 0.2 * u(), z + n]
+                };
+                pts.push(p);
+                s += 1.0;
+            }
+        }
+        let scale = Scale {
+            spacing: gap,
+            pitch: 1.0,
+            noise: 0.05,
+            radius: 3.0 * gap,
+        };
+        (pts.clone(), LocalScale::uniform(pts.len(), scale))
+    }
+
+    #[test]
+    fn line_direction_follows_a_scan_line_and_refuses_a_patch() {
+        let mut u = uniform(7);
+        let t = [0.6, 0.8, 0.0];
+        // A line along t, one step apart, lines 6 steps away on either side.
+        let mut pts = Vec::new();
+        for line in [-6.0, 0.0, 6.0] {
+            for k in -10..=10 {
+                let a = k as f64 + 0.1 * u();
+                pts.push([a * t[0] - line * t[1], a * t[1] + line * t[0], 0.02 * u()]);
+            }
+        }
+        let grid = Grid::new(&pts, 2.5).unwrap();
+        let d = line_direction([0.0; 3], &grid, 2.5).expect("a line");
+        assert!(dot(d, t).abs() > 0.995, "direction {d:?}");
+        // A uniform patch one step apart has no line direction; two points have none either.
+        let patch: Vec<[f64; 3]> = (-5..=5)
+            .flat_map(|i| (-5..=5).map(move |j| [i as f64, j as f64, 0.0]))
+            .collect();
+        let grid = Grid::new(&patch, 2.5).unwrap();
+        assert_eq!(line_direction([0.0; 3], &grid, 2.5), None);
+        let pair = [[0.0; 3], [1.0, 0.0, 0.0]];
+        let grid = Grid::new(&pair, 2.5).unwrap();
+        assert_eq!(line_direction([0.0; 3], &grid, 2.5), None);
+    }
+
+    #[test]
+    fn issue17_a_wall_a_few_scan_lines_wide_is_a_face() {
+        // The wall is 2.5 line gaps high and every one of its points is an edge candidate
+        // (the features' radius is three gaps). A disc of two gaps around its middle reaches
+        // both faces beside it; a few steps along its own line and the lines either side stay
+        // on it (before, no face took its points: seed 1's r038, r039 and r099 of
+        // `bench --random 100`).
+        let (pts, scale) = step_on_lines();
+        let grid = Grid::new(&pts, scale.at(0).radius).unwrap();
+        let f = features(
+            &pts,
+            &grid,
+            &scale,
+            &FeatureParams::default(),
+            &Progress::hidden(),
+        );
+        let wall: Vec<usize> = (0..pts.len())
+            .filter(|&i| (pts[i][0] - 40.0).abs() < 0.5 && pts[i][2] < -3.0 && pts[i][2] > -12.0)
+            .collect();
+        assert!(wall.len() > 150, "{} wall points", wall.len());
+        assert!(
+            wall.iter().all(|&i| f.candidate[i]),
+            "wall points are candidates"
+        );
+        let faces = planar_faces(&pts, &grid, &f, &scale);
+        let mut count = std::collections::HashMap::new();
+        for &i in &wall {
+            *count.entry(faces.label[i]).or_insert(0usize) += 1;
+        }
+        let (&label, &n) = count
+            .iter()
+            .max_by_key(|(l, n)| (**n, u32::MAX - **l))
+            .unwrap();
+        assert_ne!(label, NO_FACE, "the wall's middle is on no face: {count:?}");
+        assert!(
+            n * 10 >= wall.len() * 9,
+            "{n} of {} wall points on face {label}",
+            wall.len()
+        );
+        let plane = &faces.planes[label as usize];
+        assert!(
+            plane.normal[0].abs() > 0.999,
+            "wall normal {:?}",
+            plane.normal
+        );
+        assert!(
+            (plane.centroid[0] - 40.0).abs() < 0.05,
+            "wall at x = {}",
+            plane.centroid[0]
+        );
+        // Its points are no other face's.
+        let others = (0..pts.len())
+            .filter(|&i| faces.label[i] == label && (pts[i][0] - 40.0).abs() > 1.0)
+            .count();
+        assert_eq!(
+            others, 0,
+            "{others} points of the top or bottom on the wall's face"
         );
     }
 
