@@ -905,16 +905,18 @@ const LINE_OTHERS: usize = 2;
 
 /// For each of `ids` (the points of `grid`), the PCA normal of its small neighbourhood among
 /// `grid`'s points, and that neighbourhood's out-of-plane variance in noise variances
-/// (infinite with fewer than six points, or on scan lines with fewer than `LINE_OTHERS` off
-/// the point's own line).
+/// (infinite with fewer than six points).
 ///
-/// The small neighbourhood is the disc of `REACH` spacings, except on scan lines
-/// (`LINE_RATIO`): there the next line lies a spacing away, and where the lines cross a face
-/// that leans towards their planes, farther; a disc of two spacings then reaches across faces
-/// a few lines wide (a prism's side walls 2–6 lines wide under lines 8–9 mean spacings apart:
-/// `bench --random 100`, seed 1's r038, r039 and r099, whose walls grew no face). A few steps
-/// along the point's own line and along the nearest line on either side stay on such a face
-/// (both sides: two lines can lie on a strip along a rounding, three show its curve).
+/// The small neighbourhood is the disc of `REACH` spacings. On scan lines (`LINE_RATIO`) the
+/// next line lies a spacing away, and where the lines cross a face that leans towards their
+/// planes, farther; a disc of two spacings then reaches across walls a few lines wide (a
+/// prism's side walls 2–6 lines wide under lines 8–9 mean spacings apart: `bench --random
+/// 100`, seed 1's r038, r039 and r099, whose walls grew no face). A few steps along the
+/// point's own line and along the nearest line on either side stay on such a wall (both
+/// sides: two lines can lie on a strip along a rounding, three show its curve); the flatter
+/// of the two neighbourhoods counts, so a face whose lines lie too far apart for that keeps
+/// its disc (seed 83's r036: a face of 810 points, lines on both sides for half of them,
+/// grew no face when only the lines counted).
 fn small_normals(
     positions: &[[f64; 3]],
     scale: &LocalScale,
@@ -946,53 +948,60 @@ fn small_normals(
                 ..
             } = scale.at(i);
             let p = positions[i];
-            let mut m = [0.0; 10];
-            let along = (lines && h >= LINE_RATIO * pitch)
-                .then(|| line_direction(p, grid, LINE_STEP * pitch))
-                .flatten();
-            if let Some(t) = along {
-                let (reach, same) = (LINE_ALONG * pitch, LINE_SAME * pitch);
-                // (offset, distance from the point's line) of the points within reach along it.
-                let mut near: Vec<([f64; 3], f64)> = Vec::new();
-                grid.for_each_within(p, REACH * h, |_, d, d2| {
-                    let x = dot(d, t);
-                    if x.abs() <= reach {
-                        near.push((d, (d2 - x * x).max(0.0).sqrt()));
-                    }
-                });
-                // The nearest point off the line sets the side its line lies on.
-                let Some(&(first, next)) = near
-                    .iter()
-                    .filter(|&&(_, y)| y > same)
-                    .min_by(|a, b| a.1.total_cmp(&b.1))
-                else {
-                    return ([0.0; 3], f32::INFINITY);
-                };
-                let side = sub(first, scale_by(t, dot(first, t)));
-                let mut others = [0usize; 2];
-                for &(d, y) in &near {
-                    if y <= same || y <= LINE_NEXT * next {
-                        add_moments(&mut m, d);
-                        if y > same {
-                            others[usize::from(dot(d, side) < 0.0)] += 1;
-                        }
-                    }
-                }
-                // The lines on both sides: three lines tell a flat face from a strip along
-                // a rounding, which two lines can lie on.
-                if others.iter().any(|&k| k < LINE_OTHERS) {
-                    return ([0.0; 3], f32::INFINITY);
-                }
-            } else {
-                grid.for_each_within(p, REACH * h, |_, d, _| add_moments(&mut m, d));
-            }
-            match pca_from_moments(&m) {
+            let flatness = |m: &[f64; 10]| match pca_from_moments(m) {
                 Some(pca) if m[0] >= 6.0 => (
                     pca.normal.map(|c| c as f32),
                     (pca.eigenvalues[0] / (s * s).max(1e-6 * h * h)) as f32,
                 ),
                 _ => ([0.0; 3], f32::INFINITY),
+            };
+            let mut m = [0.0; 10];
+            grid.for_each_within(p, REACH * h, |_, d, _| add_moments(&mut m, d));
+            let disc = flatness(&m);
+            // The flatter of the disc and the lines' own neighbourhood: where the lines
+            // give no plane (a face they cross too far apart for lines on both sides), the
+            // disc still does.
+            if !(lines && h >= LINE_RATIO * pitch) {
+                return disc;
             }
+            let Some(t) = line_direction(p, grid, LINE_STEP * pitch) else {
+                return disc;
+            };
+            let (reach, same) = (LINE_ALONG * pitch, LINE_SAME * pitch);
+            // (offset, distance from the point's line) of the points within reach along it.
+            let mut near: Vec<([f64; 3], f64)> = Vec::new();
+            grid.for_each_within(p, REACH * h, |_, d, d2| {
+                let x = dot(d, t);
+                if x.abs() <= reach {
+                    near.push((d, (d2 - x * x).max(0.0).sqrt()));
+                }
+            });
+            // The nearest point off the line sets the side its line lies on.
+            let Some(&(first, next)) = near
+                .iter()
+                .filter(|&&(_, y)| y > same)
+                .min_by(|a, b| a.1.total_cmp(&b.1))
+            else {
+                return disc;
+            };
+            let side = sub(first, scale_by(t, dot(first, t)));
+            let mut m = [0.0; 10];
+            let mut others = [0usize; 2];
+            for &(d, y) in &near {
+                if y <= same || y <= LINE_NEXT * next {
+                    add_moments(&mut m, d);
+                    if y > same {
+                        others[usize::from(dot(d, side) < 0.0)] += 1;
+                    }
+                }
+            }
+            // The lines on both sides: three lines tell a flat face from a strip along a
+            // rounding, which two lines can lie on.
+            if others.iter().any(|&k| k < LINE_OTHERS) {
+                return disc;
+            }
+            let line = flatness(&m);
+            if line.1 < disc.1 { line } else { disc }
         })
         .unzip()
 }
