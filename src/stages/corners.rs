@@ -17,7 +17,8 @@ use rayon::prelude::*;
 
 use crate::fit::{FitParams, fit_corner_3d};
 use crate::geometry::{
-    add, cross, dot, nearest_point_to_lines, norm, pca_line, point_line_distance, sub, unit,
+    add, axpy, cross, dot, nearest_point_to_lines, neg, norm, pca_line, point_line_distance, sub,
+    unit,
 };
 use crate::left_out::{LeftOut, Reason};
 use crate::stages::edges::{EdgeParams, EdgeResult, Surface, fillet_limit};
@@ -171,7 +172,7 @@ fn filleted_third_edge(
         // The edge's direction away from the corner.
         let away = sub(s.corner, corner);
         let tangent = if dot(away, s.tangent) < 0.0 {
-            s.tangent.map(|x| -x)
+            neg(s.tangent)
         } else {
             s.tangent
         };
@@ -195,14 +196,14 @@ fn filleted_third_edge(
     // The third line runs where the other faces go from the shared one.
     let mut d = unit(cross(a.normals[oa], b.normals[ob]))?;
     if dot(d, a.traces[oa]) + dot(d, b.traces[ob]) < 0.0 {
-        d = d.map(|x| -x);
+        d = neg(d);
     }
     // Each face leaves the third line along its own edge (projected across the line).
-    let across = |t: [f64; 3]| unit(sub(t, d.map(|x| x * dot(t, d))));
+    let across = |t: [f64; 3]| unit(axpy(t, -dot(t, d), d));
     let traces = [across(a.tangent)?, across(b.tangent)?];
     let r = scale.radius;
-    let start = add(corner, d.map(|x| x * r));
-    let end = add(corner, d.map(|x| x * 4.0 * r));
+    let start = axpy(corner, r, d);
+    let end = axpy(corner, 4.0 * r, d);
     rounded_crease(
         surface.positions,
         surface.grid,

@@ -56,6 +56,7 @@ use crate::geometry::moments::{add_moments, pca_from_moments, spread_along};
 use crate::geometry::{add, dot, neg, norm, parabola_curvature, pca_line, scale as scale_by, sub};
 use crate::neighbours::Grid;
 use crate::stages::features::{Features, LocalScale, Scale};
+use crate::stages::scale::quantile;
 
 /// Label of a point on no planar face.
 pub const NO_FACE: u32 = u32::MAX;
@@ -136,14 +137,10 @@ pub(crate) fn rounded_crease(
     if excess.len() < CREASE_MIN_POINTS {
         return None;
     }
-    let median = |x: &mut Vec<f64>| {
-        x.sort_unstable_by(f64::total_cmp);
-        x[x.len() / 2]
-    };
     let sigma = faces_noise.max(local.noise) / sin_half;
     // The median's standard error is 1.25 σ/√n for normal errors.
     let slack = 2.5 * sigma / (excess.len() as f64).sqrt();
-    (median(&mut beyond) > slack).then(|| median(&mut excess))
+    (quantile(&mut beyond, 0.5) > slack).then(|| quantile(&mut excess, 0.5))
 }
 
 /// How far off a face's plane a point may lie and join it, at noise sigma `noise` and
@@ -927,19 +924,19 @@ fn small_normals(
     // A scan in lines has them everywhere: a few points whose spacing reads as lines on
     // uniform sampling (beside its edges, under grazing noise) are none (seed 79's r056,
     // lines 1.08 mean spacings apart, has 5 % of them).
-    let lines = {
-        let mut ratio: Vec<f64> = ids
-            .iter()
-            .map(|&i| {
-                let s = scale.at(i as usize);
-                s.spacing / s.pitch
-            })
-            .collect();
-        let mid = ratio.len() / 2;
-        !ratio.is_empty() && *ratio.select_nth_unstable_by(mid, f64::total_cmp).1 >= LINES_MEDIAN
-    };
-    ids.par_iter()
+    let mut ratio: Vec<f64> = ids
+        .iter()
         .map(|&i| {
+            let s = scale.at(i as usize);
+            s.spacing / s.pitch
+        })
+        .collect();
+    // (NaN when no point is asked: no lines.)
+    let lines = quantile(&mut ratio, 0.5) >= LINES_MEDIAN;
+    // Each worker's buffers, reused from point to point: the disc's neighbours (offsets and
+    // squared distances) and the indices `pca_line` reads.
+    ids.par_iter()
+        .map_init(DiscScratch::default, |scratch, &i| {
             let i = i as usize;
             let Scale {
                 spacing: h,
@@ -947,7 +944,6 @@ fn small_normals(
                 noise: s,
                 ..
             } = scale.at(i);
-            let p = positions[i];
             let flatness = |m: &[f64; 10]| match pca_from_moments(m) {
                 Some(pca) if m[0] >= 6.0 => (
                     pca.normal.map(|c| c as f32),
@@ -955,71 +951,91 @@ fn small_normals(
                 ),
                 _ => ([0.0; 3], f32::INFINITY),
             };
+            // The flatter of the disc and the lines' own neighbourhood, read from the disc's
+            // points: where the lines give no plane (a face they cross too far apart for
+            // lines on both sides), the disc still does.
+            let on_line = lines && h >= LINE_RATIO * pitch;
             let mut m = [0.0; 10];
-            grid.for_each_within(p, REACH * h, |_, d, _| add_moments(&mut m, d));
-            let disc = flatness(&m);
-            // The flatter of the disc and the lines' own neighbourhood: where the lines
-            // give no plane (a face they cross too far apart for lines on both sides), the
-            // disc still does.
-            if !(lines && h >= LINE_RATIO * pitch) {
-                return disc;
-            }
-            let Some(t) = line_direction(p, grid, LINE_STEP * pitch) else {
-                return disc;
-            };
-            let (reach, same) = (LINE_ALONG * pitch, LINE_SAME * pitch);
-            // (offset, distance from the point's line) of the points within reach along it.
-            let mut near: Vec<([f64; 3], f64)> = Vec::new();
-            grid.for_each_within(p, REACH * h, |_, d, d2| {
-                let x = dot(d, t);
-                if x.abs() <= reach {
-                    near.push((d, (d2 - x * x).max(0.0).sqrt()));
+            scratch.offsets.clear();
+            scratch.d2.clear();
+            grid.for_each_within(positions[i], REACH * h, |_, d, d2| {
+                add_moments(&mut m, d);
+                if on_line {
+                    scratch.offsets.push(d);
+                    scratch.d2.push(d2);
                 }
             });
-            // The nearest point off the line sets the side its line lies on.
-            let Some(&(first, next)) = near
-                .iter()
-                .filter(|&&(_, y)| y > same)
-                .min_by(|a, b| a.1.total_cmp(&b.1))
-            else {
+            let disc = flatness(&m);
+            if !on_line {
                 return disc;
-            };
-            let side = sub(first, scale_by(t, dot(first, t)));
-            let mut m = [0.0; 10];
-            let mut others = [0usize; 2];
-            for &(d, y) in &near {
-                if y <= same || y <= LINE_NEXT * next {
-                    add_moments(&mut m, d);
-                    if y > same {
-                        others[usize::from(dot(d, side) < 0.0)] += 1;
-                    }
+            }
+            match line_neighbourhood(scratch, pitch) {
+                Some(m) => {
+                    let line = flatness(&m);
+                    if line.1 < disc.1 { line } else { disc }
                 }
+                None => disc,
             }
-            // The lines on both sides: three lines tell a flat face from a strip along a
-            // rounding, which two lines can lie on.
-            if others.iter().any(|&k| k < LINE_OTHERS) {
-                return disc;
-            }
-            let line = flatness(&m);
-            if line.1 < disc.1 { line } else { disc }
         })
         .unzip()
 }
 
-/// The unit direction of the scan line through `p`: the principal axis of `grid`'s points
-/// within `reach` of it; `None` with fewer than three of them or when they do not lie along
-/// one line (see [`LINE_AXIS`]).
-fn line_direction(p: [f64; 3], grid: &Grid, reach: f64) -> Option<[f64; 3]> {
-    let mut offsets: Vec<[f64; 3]> = Vec::new();
-    grid.for_each_within(p, reach, |_, d, _| offsets.push(d));
-    if offsets.len() < 3 {
+/// The points of a small neighbourhood's disc, offsets from its point and squared
+/// distances in the grid's order, and scratch indices into them.
+#[derive(Default)]
+struct DiscScratch {
+    offsets: Vec<[f64; 3]>,
+    d2: Vec<f64>,
+    ids: Vec<usize>,
+}
+
+/// The moments of a scan line's small neighbourhood (see [`small_normals`]) among the points
+/// of a disc, at the lines' pitch; `None` when the point's own line has no clear direction
+/// or the lines on either side give fewer than `LINE_OTHERS` points.
+fn line_neighbourhood(disc: &mut DiscScratch, pitch: f64) -> Option<[f64; 10]> {
+    let step = LINE_STEP * pitch;
+    let t = line_direction(disc, step * step)?;
+    let (reach, same) = (LINE_ALONG * pitch, LINE_SAME * pitch);
+    // (offset, distance from the point's line) of the points within reach along it.
+    let near = disc.offsets.iter().zip(&disc.d2).filter_map(|(&d, &d2)| {
+        let x = dot(d, t);
+        (x.abs() <= reach).then(|| (d, (d2 - x * x).max(0.0).sqrt()))
+    });
+    // The nearest point off the line sets the side its line lies on.
+    let (first, next) = near
+        .clone()
+        .filter(|&(_, y)| y > same)
+        .min_by(|a, b| a.1.total_cmp(&b.1))?;
+    let side = sub(first, scale_by(t, dot(first, t)));
+    let mut m = [0.0; 10];
+    let mut others = [0usize; 2];
+    for (d, y) in near {
+        if y <= same || y <= LINE_NEXT * next {
+            add_moments(&mut m, d);
+            if y > same {
+                others[usize::from(dot(d, side) < 0.0)] += 1;
+            }
+        }
+    }
+    // The lines on both sides: three lines tell a flat face from a strip along a rounding,
+    // which two lines can lie on.
+    others.iter().all(|&k| k >= LINE_OTHERS).then_some(m)
+}
+
+/// The unit direction of the scan line through the point of `disc`: the principal axis of
+/// the disc's points within squared distance `reach2` of it; `None` with fewer than three
+/// of them or when they do not lie along one line (see [`LINE_AXIS`]).
+fn line_direction(disc: &mut DiscScratch, reach2: f64) -> Option<[f64; 3]> {
+    let DiscScratch { offsets, d2, ids } = disc;
+    ids.clear();
+    ids.extend((0..d2.len()).filter(|&k| d2[k] <= reach2));
+    if ids.len() < 3 {
         return None;
     }
-    let all: Vec<usize> = (0..offsets.len()).collect();
-    let (c, t) = pca_line(&offsets, &all)?;
+    let (c, t) = pca_line(offsets, ids)?;
     let (mut along, mut across) = (0.0, 0.0);
-    for &d in &offsets {
-        let v = sub(d, c);
+    for &k in ids.iter() {
+        let v = sub(offsets[k], c);
         let x = dot(v, t);
         along += x * x;
         across += (dot(v, v) - x * x).max(0.0);
@@ -1392,16 +1408,22 @@ mod tests {
             noise,
             radius: 4.0,
         };
-        let local = LocalScale::uniform(pts.len(), scale);
-        let grid = Grid::new(pts, scale.radius).unwrap();
+        features_and_faces(pts, &LocalScale::uniform(pts.len(), scale)).1
+    }
+
+    /// The features (default settings) and planar faces of `pts` at the scale `local`
+    /// (its first point's radius sizes the grid).
+    fn features_and_faces(pts: &[[f64; 3]], local: &LocalScale) -> (Features, Faces) {
+        let grid = Grid::new(pts, local.at(0).radius).unwrap();
         let f = features(
             pts,
             &grid,
-            &local,
+            local,
             &FeatureParams::default(),
             &Progress::hidden(),
         );
-        planar_faces(pts, &grid, &f, &local)
+        let faces = planar_faces(pts, &grid, &f, local);
+        (f, faces)
     }
 
     /// A jittered grid on the box [0, a] x [0, b] x [0, c] surface, pitch h.
@@ -1547,6 +1569,18 @@ mod tests {
         (pts.clone(), LocalScale::uniform(pts.len(), scale))
     }
 
+    /// `line_direction` at the origin within 2.5 of it, from a disc of radius 8 (wider, as
+    /// in `small_normals`, and reaching the lines beside).
+    fn direction_at_origin(pts: &[[f64; 3]]) -> Option<[f64; 3]> {
+        let grid = Grid::new(pts, 8.0).unwrap();
+        let mut disc = DiscScratch::default();
+        grid.for_each_within([0.0; 3], 8.0, |_, d, d2| {
+            disc.offsets.push(d);
+            disc.d2.push(d2);
+        });
+        line_direction(&mut disc, 2.5 * 2.5)
+    }
+
     #[test]
     fn line_direction_follows_a_scan_line_and_refuses_a_patch() {
         let mut u = uniform(7);
@@ -1559,18 +1593,15 @@ mod tests {
                 pts.push([a * t[0] - line * t[1], a * t[1] + line * t[0], 0.02 * u()]);
             }
         }
-        let grid = Grid::new(&pts, 2.5).unwrap();
-        let d = line_direction([0.0; 3], &grid, 2.5).expect("a line");
+        let d = direction_at_origin(&pts).expect("a line");
         assert!(dot(d, t).abs() > 0.995, "direction {d:?}");
         // A uniform patch one step apart has no line direction; two points have none either.
         let patch: Vec<[f64; 3]> = (-5..=5)
             .flat_map(|i| (-5..=5).map(move |j| [i as f64, j as f64, 0.0]))
             .collect();
-        let grid = Grid::new(&patch, 2.5).unwrap();
-        assert_eq!(line_direction([0.0; 3], &grid, 2.5), None);
+        assert_eq!(direction_at_origin(&patch), None);
         let pair = [[0.0; 3], [1.0, 0.0, 0.0]];
-        let grid = Grid::new(&pair, 2.5).unwrap();
-        assert_eq!(line_direction([0.0; 3], &grid, 2.5), None);
+        assert_eq!(direction_at_origin(&pair), None);
     }
 
     #[test]
@@ -1581,14 +1612,7 @@ mod tests {
         // on it (before, no face took its points: seed 1's r038, r039 and r099 of
         // `bench --random 100`).
         let (pts, scale) = step_on_lines();
-        let grid = Grid::new(&pts, scale.at(0).radius).unwrap();
-        let f = features(
-            &pts,
-            &grid,
-            &scale,
-            &FeatureParams::default(),
-            &Progress::hidden(),
-        );
+        let (f, faces) = features_and_faces(&pts, &scale);
         let wall: Vec<usize> = (0..pts.len())
             .filter(|&i| (pts[i][0] - 40.0).abs() < 0.5 && pts[i][2] < -3.0 && pts[i][2] > -12.0)
             .collect();
@@ -1597,7 +1621,6 @@ mod tests {
             wall.iter().all(|&i| f.candidate[i]),
             "wall points are candidates"
         );
-        let faces = planar_faces(&pts, &grid, &f, &scale);
         let mut count = std::collections::HashMap::new();
         for &i in &wall {
             *count.entry(faces.label[i]).or_insert(0usize) += 1;
