@@ -24,7 +24,9 @@
 //! of a sharp edge of the line there (`plane_corners::hugs`: a fillet or a chamfer between
 //! the faces leaves their line in the air). Runs of such steps, at least `MIN_LENGTH` radii
 //! long and not along an edge between plane corners already, are edges; an end within
-//! `SNAP` radii of a plane corner of both faces ends at that corner.
+//! `SNAP` radii of a plane corner of both faces ends at that corner. A face sampled much more
+//! sparsely than the candidates beside it (seen at a grazing angle) is asked within reaches
+//! widened by its spacing over theirs (`SPARSE_RATIO`).
 
 use rayon::prelude::*;
 
@@ -36,7 +38,8 @@ use crate::stages::edges::{EdgeParams, fillet_limit};
 use crate::stages::faces::{Faces, NO_FACE, rounded_crease};
 use crate::stages::features::{Features, LocalScale};
 use crate::stages::plane_corners::{
-    FaceCorner, FaceEdge, MIN_FACE_ANGLE, faces_seen, hug_gap, hugs, intersect, traces, voters,
+    FaceCorner, FaceEdge, MIN_FACE_ANGLE, SEE_POINTS, SEE_REACH, faces_seen, hug_gap, hugs,
+    intersect, traces, voters,
 };
 
 /// A face pair named by a candidate (its id).
@@ -99,6 +102,7 @@ pub fn pair_edges(
         return Vec::new();
     }
     let candidates = voters(features);
+    let sparsest = faces.planes.iter().map(|p| p.spacing).fold(0.0, f64::max);
     // (face pair, candidate) for every candidate that sees two faces or more.
     let mut votes: Vec<PairVote> = candidates
         .par_iter()
@@ -106,6 +110,9 @@ pub fn pair_edges(
             || (Vec::new(), Vec::new()),
             |(mut out, mut seen): (Vec<PairVote>, Vec<(u32, usize)>), &c| {
                 faces_seen(positions, grid, faces, scale, c, &mut seen);
+                if seen.len() == 1 {
+                    sparse_faces_seen(positions, grid, faces, scale, c, sparsest, &mut seen);
+                }
                 for (a, x) in seen.iter().enumerate() {
                     for y in &seen[a + 1..] {
                         out.push(([x.0, y.0], c));
@@ -150,6 +157,72 @@ pub fn pair_edges(
         out.len()
     );
     out
+}
+
+/// A face is sparse beside an edge candidate when its points' median spacing is at least
+/// this many times the candidate's: a face a structured-light grid or a view sees at a
+/// grazing angle beside one it sees square on. Its reaches widen by that ratio, up to
+/// `SPARSE_CAP`.
+const SPARSE_RATIO: f64 = 2.0;
+const SPARSE_CAP: f64 = 6.0;
+
+/// How much a pair edge's reaches widen for `plane` where the scan's spacing is `spacing`
+/// (see [`SPARSE_RATIO`]): 1 for a face sampled about as densely.
+fn widening(plane: &crate::stages::faces::Plane, spacing: f64) -> f64 {
+    let ratio = plane.spacing / spacing;
+    if ratio >= SPARSE_RATIO {
+        ratio.min(SPARSE_CAP)
+    } else {
+        1.0
+    }
+}
+
+/// The sparse faces (see [`SPARSE_RATIO`]) edge candidate `c`, which sees one face, sees
+/// within their widened reach, added to `seen` (ascending by face); `sparsest` is the
+/// largest spacing of a face. Why: where a view sees one face square on and the other at a
+/// grazing angle (seed 1's r048 of `bench --random 100`: 0.78 and 0.03 points per square
+/// spacing), the sparse face's own sampling cells begin 15 spacings from the edge, so it
+/// grows a face only there, beyond the dense side's reach of a few spacings, and no pair
+/// of faces was named along a 175-spacing edge.
+fn sparse_faces_seen(
+    positions: &[[f64; 3]],
+    grid: &Grid,
+    faces: &Faces,
+    scale: &LocalScale,
+    c: u32,
+    sparsest: f64,
+    seen: &mut Vec<(u32, usize)>,
+) {
+    let local = scale.at(c as usize);
+    let widest = (sparsest / local.spacing).min(SPARSE_CAP);
+    if widest < SPARSE_RATIO {
+        return;
+    }
+    let base = SEE_REACH * local.radius;
+    let first = seen.len();
+    grid.for_each_within(positions[c as usize], base * widest, |j, _, d2| {
+        let l = faces.label[j as usize];
+        if l == NO_FACE || seen[..first].iter().any(|s| s.0 == l) {
+            return;
+        }
+        let widen = widening(&faces.planes[l as usize], local.spacing);
+        if widen == 1.0 || d2 > (base * widen).powi(2) {
+            return;
+        }
+        match seen[first..].iter_mut().find(|s| s.0 == l) {
+            Some(s) => s.1 += 1,
+            None => seen.push((l, 1)),
+        }
+    });
+    let mut k = first;
+    while k < seen.len() {
+        if seen[k].1 < SEE_POINTS {
+            seen.swap_remove(k);
+        } else {
+            k += 1;
+        }
+    }
+    seen.sort_unstable_by_key(|s| s.0);
 }
 
 /// Open ends of two edges within this many radii of their three faces' common point end
@@ -364,6 +437,8 @@ fn pair_stretches(
             (s.min(t), s.max(t))
         })
         .collect();
+    // Each face's reach: the radius, widened for a sparse face (see `SPARSE_RATIO`).
+    let reach = [&pa, &pb].map(|p| r * widening(p, step));
     let on_edge: Vec<bool> = (0..nsteps)
         .map(|k| {
             let t = lo + k as f64 * step;
@@ -372,12 +447,13 @@ fn pair_stretches(
             }
             let q = axpy(origin, t, d);
             let mut near = [false; 2];
-            grid.for_each_within(q, FACE_REACH * r, |j, w, _| {
+            grid.for_each_within(q, FACE_REACH * reach[0].max(reach[1]), |j, w, d2| {
                 let l = faces.label[j as usize];
-                if l != NO_FACE && dot(w, d).abs() <= ALONG_REACH * r {
-                    near[0] |= l == pair[0];
-                    near[1] |= l == pair[1];
-                }
+                let Some(k) = pair.iter().position(|&f| f == l) else {
+                    return;
+                };
+                near[k] |= dot(w, d).abs() <= ALONG_REACH * reach[k]
+                    && d2 <= (FACE_REACH * reach[k]).powi(2);
             });
             near[0] && near[1] && hugs(grid, q, d, [&pa, &pb], gap, step, |_| false)
         })
@@ -425,7 +501,7 @@ fn pair_stretches(
             pair,
             d,
             scale_by(add(start, end), 0.5),
-            4.0 * r,
+            4.0 * reach[0].max(reach[1]),
         ) else {
             continue;
         };
@@ -435,7 +511,17 @@ fn pair_stretches(
         // candidates at the line may see a quieter face (a grazing face of a structured-light
         // view is smoother than the one facing the camera).
         let wide = [&pa, &pb].map(|p| STRIP_SIGMAS * p.noise.max(local.noise) / turn.max(1e-3));
-        if !reach_beyond(grid, faces, pair, mid, d, wide, step, 3.0 * r) {
+        let steps = reach.map(|x| step * x / r);
+        if !reach_beyond(
+            grid,
+            faces,
+            pair,
+            mid,
+            d,
+            wide,
+            steps,
+            reach.map(|x| 3.0 * x),
+        ) {
             let flat = turn.to_degrees() >= NARROW_MIN_TURN
                 && flat_across(
                     positions,
@@ -615,8 +701,8 @@ fn flat_across(
 }
 
 /// Whether each face `pair[k]` has points at least `wide[k]` from the line through `mid`
-/// along unit `d`, within `step` of `mid` along it, looking at least `band` out (the edge
-/// candidates' band, which no face labels).
+/// along unit `d`, within `step[k]` of `mid` along it, looking at least `band[k]` out (the
+/// edge candidates' band, which no face labels; a sparse face's widened).
 #[allow(clippy::too_many_arguments)]
 fn reach_beyond(
     grid: &Grid,
@@ -625,17 +711,20 @@ fn reach_beyond(
     mid: [f64; 3],
     d: [f64; 3],
     wide: [f64; 2],
-    step: f64,
-    band: f64,
+    step: [f64; 2],
+    band: [f64; 2],
 ) -> bool {
     let mut far = [false; 2];
-    grid.for_each_within(mid, wide[0].max(wide[1]).max(band) + step, |j, w, _| {
+    let out = (0..2)
+        .map(|k| wide[k].max(band[k]) + step[k])
+        .fold(0.0, f64::max);
+    grid.for_each_within(mid, out, |j, w, _| {
         let l = faces.label[j as usize];
         let Some(k) = pair.iter().position(|&f| f == l) else {
             return;
         };
         let along = dot(w, d);
-        far[k] |= along.abs() <= step && norm(sub(w, scale_by(d, along))) >= wide[k];
+        far[k] |= along.abs() <= step[k] && norm(sub(w, scale_by(d, along))) >= wide[k];
     });
     far[0] && far[1]
 }
@@ -753,6 +842,96 @@ mod tests {
             faces: Faces { label, planes },
             positions,
         }
+    }
+
+    /// A 90° edge along the y axis (y in [0, 60]) between a face seen square on (points
+    /// every 1 across and along, out to 30; within 2 of the edge, edge candidates) and one
+    /// seen at a grazing angle (every 6, out to 60), whose points within 15 of the edge are
+    /// on no face (their sampling cells read the dense side's scale); `sparse_spacing` is the
+    /// second face's spacing as its plane records it.
+    fn grazing_wedge(sparse_spacing: f64) -> Wedge {
+        let half = std::f64::consts::FRAC_PI_4;
+        let dirs = [
+            [half.cos(), 0.0, half.sin()],
+            [half.cos(), 0.0, -half.sin()],
+        ];
+        let (mut positions, mut label, mut candidate) = (Vec::new(), Vec::new(), Vec::new());
+        for (f, (step, width, unlabelled)) in [(1.0, 30.0, 2.0), (6.0, 60.0, 15.0)]
+            .into_iter()
+            .enumerate()
+        {
+            let mut x = 0.5 * step;
+            while x < width {
+                let mut y = 0.0;
+                while y <= 60.0 {
+                    positions.push(axpy([0.0, y, 0.0], x, dirs[f]));
+                    label.push(if x < unlabelled { NO_FACE } else { f as u32 });
+                    candidate.push(f == 0 && x < unlabelled);
+                    y += step;
+                }
+                x += step;
+            }
+        }
+        let n = positions.len();
+        let plane = |normal: [f64; 3], on: [f64; 3], spacing: f64| Plane {
+            normal,
+            centroid: on,
+            points: 1000,
+            rms: 0.0,
+            spacing,
+            pitch: spacing,
+            noise: 0.01,
+        };
+        Wedge {
+            features: Features {
+                candidate,
+                outlier: vec![false; n],
+                ..Features::default()
+            },
+            scale: LocalScale::uniform(
+                n,
+                Scale {
+                    spacing: 1.0,
+                    pitch: 1.0,
+                    noise: 0.01,
+                    radius: 4.0,
+                },
+            ),
+            faces: Faces {
+                label,
+                planes: vec![
+                    plane(
+                        [-half.sin(), 0.0, half.cos()],
+                        dirs[0].map(|x| x * 10.0),
+                        1.0,
+                    ),
+                    plane(
+                        [half.sin(), 0.0, half.cos()],
+                        dirs[1].map(|x| x * 30.0),
+                        sparse_spacing,
+                    ),
+                ],
+            },
+            positions,
+        }
+    }
+
+    #[test]
+    fn issue17_a_face_seen_at_a_grazing_angle_meets_the_one_seen_square_on() {
+        // Seed 1's r048 of `bench --random 100`: the grazing face grew a face only 15 h from
+        // the edge, beyond the dense side's reach, and no edge was found along 175 h.
+        let w = grazing_wedge(6.0);
+        let found = edges_of(&w);
+        assert_eq!(found.len(), 1, "{found:?}");
+        let e = &found[0];
+        assert_eq!(e.faces, [0, 1]);
+        assert!(norm(sub(e.end, e.start)) > 50.0, "{e:?}");
+        for p in [e.start, e.end] {
+            assert!(off_axis(p) < 1e-6, "{p:?} off the edge line");
+        }
+        // A face that sparse only by its spacing's reading stays at the dense side's reach.
+        let w = grazing_wedge(1.5);
+        assert!(edges_of(&w).is_empty());
     }
 
     fn edges_of(w: &Wedge) -> Vec<FaceEdge> {

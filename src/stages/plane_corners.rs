@@ -39,8 +39,8 @@ type Vote = ([u32; 3], u32);
 
 /// An edge candidate sees a face when at least this many of the face's points lie within
 /// `SEE_REACH` of its own radius.
-const SEE_POINTS: usize = 3;
-const SEE_REACH: f64 = 2.5;
+pub(crate) const SEE_POINTS: usize = 3;
+pub(crate) const SEE_REACH: f64 = 2.5;
 /// Two faces of a corner turn against each other by at least this many degrees: the parts
 /// users bring have edges whose faces turn by 20° (an interior angle of 160°); a face split
 /// in two turns by a few degrees at most. (Faceted curved surfaces, whose facets meet at
