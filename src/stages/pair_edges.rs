@@ -38,8 +38,8 @@ use crate::stages::edges::{EdgeParams, fillet_limit};
 use crate::stages::faces::{Faces, NO_FACE, rounded_crease};
 use crate::stages::features::{Features, LocalScale};
 use crate::stages::plane_corners::{
-    FaceCorner, FaceEdge, MIN_FACE_ANGLE, SEE_POINTS, SEE_REACH, faces_seen, hug_gap, hugs,
-    intersect, traces, voters,
+    FaceCorner, FaceEdge, MIN_FACE_ANGLE, SEE_REACH, faces_seen, hug_gap, hugs, intersect,
+    keep_seen, tally, traces, voters,
 };
 
 /// A face pair named by a candidate (its id).
@@ -206,22 +206,11 @@ fn sparse_faces_seen(
             return;
         }
         let widen = widening(&faces.planes[l as usize], local.spacing);
-        if widen == 1.0 || d2 > (base * widen).powi(2) {
-            return;
-        }
-        match seen[first..].iter_mut().find(|s| s.0 == l) {
-            Some(s) => s.1 += 1,
-            None => seen.push((l, 1)),
+        if widen > 1.0 && d2 <= (base * widen).powi(2) {
+            tally(seen, first, l);
         }
     });
-    let mut k = first;
-    while k < seen.len() {
-        if seen[k].1 < SEE_POINTS {
-            seen.swap_remove(k);
-        } else {
-            k += 1;
-        }
-    }
+    keep_seen(seen, first);
     seen.sort_unstable_by_key(|s| s.0);
 }
 
@@ -438,7 +427,8 @@ fn pair_stretches(
         })
         .collect();
     // Each face's reach: the radius, widened for a sparse face (see `SPARSE_RATIO`).
-    let reach = [&pa, &pb].map(|p| r * widening(p, step));
+    let widen = [&pa, &pb].map(|p| widening(p, step));
+    let reach = widen.map(|w| r * w);
     let on_edge: Vec<bool> = (0..nsteps)
         .map(|k| {
             let t = lo + k as f64 * step;
@@ -511,7 +501,7 @@ fn pair_stretches(
         // candidates at the line may see a quieter face (a grazing face of a structured-light
         // view is smoother than the one facing the camera).
         let wide = [&pa, &pb].map(|p| STRIP_SIGMAS * p.noise.max(local.noise) / turn.max(1e-3));
-        let steps = reach.map(|x| step * x / r);
+        let steps = widen.map(|w| step * w);
         if !reach_beyond(
             grid,
             faces,
@@ -800,7 +790,6 @@ mod tests {
                 line(axpy(a, t, sub(b, a)), 2, &mut positions);
             }
         }
-        let n = positions.len();
         let near_edge = |p: &[f64; 3]| (p[0] * p[0] + p[2] * p[2]).sqrt() < start + band;
         let candidate: Vec<bool> = positions.iter().map(near_edge).collect();
         let label: Vec<u32> = label
@@ -808,15 +797,7 @@ mod tests {
             .zip(&candidate)
             .map(|(&l, &c)| if c { NO_FACE } else { l })
             .collect();
-        let plane = |normal: [f64; 3], on: [f64; 3]| Plane {
-            normal,
-            centroid: on,
-            points: 1000,
-            rms: 0.0,
-            spacing: gap,
-            pitch: gap,
-            noise: 0.01,
-        };
+        let plane = |normal: [f64; 3], on: [f64; 3]| test_plane(normal, on, gap);
         let mut planes = vec![
             plane([-half.sin(), 0.0, half.cos()], dirs[0].map(|x| x * 10.0)),
             plane([half.sin(), 0.0, half.cos()], dirs[1].map(|x| x * 10.0)),
@@ -824,23 +805,49 @@ mod tests {
         if chamfer > 0.0 {
             planes.push(plane([1.0, 0.0, 0.0], [half.cos() * chamfer, 0.0, 0.0]));
         }
-        Wedge {
-            features: Features {
-                candidate,
-                outlier: vec![false; n],
-                ..Features::default()
-            },
-            scale: LocalScale::uniform(
-                n,
-                Scale {
-                    spacing: gap,
-                    pitch,
-                    noise: 0.01,
-                    radius: 4.0 * gap,
+        let scale = Scale {
+            spacing: gap,
+            pitch,
+            noise: 0.01,
+            radius: 4.0 * gap,
+        };
+        Wedge::new(positions, label, candidate, planes, scale)
+    }
+
+    /// A plane of a thousand points at noise 0.01 whose spacing and pitch are `spacing`.
+    fn test_plane(normal: [f64; 3], on: [f64; 3], spacing: f64) -> Plane {
+        Plane {
+            normal,
+            centroid: on,
+            points: 1000,
+            rms: 0.0,
+            spacing,
+            pitch: spacing,
+            noise: 0.01,
+        }
+    }
+
+    impl Wedge {
+        /// The wedge of `positions` with their face labels and candidate flags, no outliers,
+        /// the `planes` and one `scale` for every point.
+        fn new(
+            positions: Vec<[f64; 3]>,
+            label: Vec<u32>,
+            candidate: Vec<bool>,
+            planes: Vec<Plane>,
+            scale: Scale,
+        ) -> Wedge {
+            let n = positions.len();
+            Wedge {
+                features: Features {
+                    candidate,
+                    outlier: vec![false; n],
+                    ..Features::default()
                 },
-            ),
-            faces: Faces { label, planes },
-            positions,
+                scale: LocalScale::uniform(n, scale),
+                faces: Faces { label, planes },
+                positions,
+            }
         }
     }
 
@@ -872,48 +879,25 @@ mod tests {
                 x += step;
             }
         }
-        let n = positions.len();
-        let plane = |normal: [f64; 3], on: [f64; 3], spacing: f64| Plane {
-            normal,
-            centroid: on,
-            points: 1000,
-            rms: 0.0,
-            spacing,
-            pitch: spacing,
-            noise: 0.01,
-        };
-        Wedge {
-            features: Features {
-                candidate,
-                outlier: vec![false; n],
-                ..Features::default()
-            },
-            scale: LocalScale::uniform(
-                n,
-                Scale {
-                    spacing: 1.0,
-                    pitch: 1.0,
-                    noise: 0.01,
-                    radius: 4.0,
-                },
+        let planes = vec![
+            test_plane(
+                [-half.sin(), 0.0, half.cos()],
+                dirs[0].map(|x| x * 10.0),
+                1.0,
             ),
-            faces: Faces {
-                label,
-                planes: vec![
-                    plane(
-                        [-half.sin(), 0.0, half.cos()],
-                        dirs[0].map(|x| x * 10.0),
-                        1.0,
-                    ),
-                    plane(
-                        [half.sin(), 0.0, half.cos()],
-                        dirs[1].map(|x| x * 30.0),
-                        sparse_spacing,
-                    ),
-                ],
-            },
-            positions,
-        }
+            test_plane(
+                [half.sin(), 0.0, half.cos()],
+                dirs[1].map(|x| x * 30.0),
+                sparse_spacing,
+            ),
+        ];
+        let scale = Scale {
+            spacing: 1.0,
+            pitch: 1.0,
+            noise: 0.01,
+            radius: 4.0,
+        };
+        Wedge::new(positions, label, candidate, planes, scale)
     }
 
     #[test]

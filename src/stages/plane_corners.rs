@@ -39,7 +39,7 @@ type Vote = ([u32; 3], u32);
 
 /// An edge candidate sees a face when at least this many of the face's points lie within
 /// `SEE_REACH` of its own radius.
-pub(crate) const SEE_POINTS: usize = 3;
+const SEE_POINTS: usize = 3;
 pub(crate) const SEE_REACH: f64 = 2.5;
 /// Two faces of a corner turn against each other by at least this many degrees: the parts
 /// users bring have edges whose faces turn by 20° (an interior angle of 160°); a face split
@@ -294,6 +294,23 @@ pub(crate) fn voters(features: &Features) -> Vec<u32> {
         .collect()
 }
 
+/// Counts one point of face `l` in `seen[from..]` (face, points).
+pub(crate) fn tally(seen: &mut Vec<(u32, usize)>, from: usize, l: u32) {
+    match seen[from..].iter_mut().find(|s| s.0 == l) {
+        Some(s) => s.1 += 1,
+        None => seen.push((l, 1)),
+    }
+}
+
+/// Leaves out of `seen[from..]` the faces with fewer than [`SEE_POINTS`] points.
+pub(crate) fn keep_seen(seen: &mut Vec<(u32, usize)>, from: usize) {
+    let mut k = 0;
+    seen.retain(|s| {
+        k += 1;
+        k <= from || s.1 >= SEE_POINTS
+    });
+}
+
 /// The faces edge candidate `c` sees (see [`SEE_POINTS`]), at most the six with the most
 /// points there, as (face, points) ascending by face, into `seen`.
 pub(crate) fn faces_seen(
@@ -309,15 +326,11 @@ pub(crate) fn faces_seen(
     let reach = SEE_REACH * scale.at(i).radius;
     grid.for_each_within(positions[i], reach, |j, _, _| {
         let l = faces.label[j as usize];
-        if l == NO_FACE {
-            return;
-        }
-        match seen.iter_mut().find(|s| s.0 == l) {
-            Some(s) => s.1 += 1,
-            None => seen.push((l, 1)),
+        if l != NO_FACE {
+            tally(seen, 0, l);
         }
     });
-    seen.retain(|s| s.1 >= SEE_POINTS);
+    keep_seen(seen, 0);
     seen.sort_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(&b.0)));
     seen.truncate(6);
     seen.sort_unstable_by_key(|s| s.0);
