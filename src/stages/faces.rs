@@ -1497,10 +1497,9 @@ fn refine_planes(
             if ids.len() < MIN_FACE_POINTS {
                 return None;
             }
-            let flat = ids
-                .iter()
-                .filter(|&&i| !features.candidate[i as usize])
-                .count();
+            // Off the candidate bands (without `candidates`, every member is).
+            let off_band = |i: u32| !features.candidate[i as usize];
+            let flat = ids.iter().filter(|&&i| off_band(i)).count();
             // A narrow face (all candidates) has its plane from the small normals
             // (`narrow_faces`); the candidates' own normals straddle its edges.
             if candidates && (flat == 0 || 2 * flat >= ids.len()) {
@@ -1518,7 +1517,7 @@ fn refine_planes(
             let mut sorted: Vec<f64> = ids
                 .iter()
                 .zip(&deviation)
-                .filter(|&(&i, _)| !candidates || !features.candidate[i as usize])
+                .filter(|&(&i, _)| off_band(i))
                 .map(|(_, &d)| d)
                 .collect();
             let mid = sorted.len() / 2;
@@ -1549,7 +1548,7 @@ fn refine_planes(
                 // moved its corners 1.3–1.5 h (seed 1's r002 at σ 0.19 h).
                 let squares = |n: [f64; 3], c: [f64; 3]| -> f64 {
                     ids.iter()
-                        .filter(|&&i| !features.candidate[i as usize])
+                        .filter(|&&i| off_band(i))
                         .map(|&i| dot(n, sub(positions[i as usize], c)).powi(2))
                         .sum()
                 };

@@ -35,7 +35,7 @@ use crate::geometry::{
 };
 use crate::neighbours::Grid;
 use crate::stages::edges::{EdgeParams, fillet_limit};
-use crate::stages::faces::{Faces, NO_FACE, rounded_crease};
+use crate::stages::faces::{Faces, NO_FACE, Plane, rounded_crease};
 use crate::stages::features::{Features, LocalScale};
 use crate::stages::plane_corners::{
     FaceCorner, FaceEdge, MIN_FACE_ANGLE, SEE_REACH, faces_seen, hug_gap, hugs, intersect,
@@ -168,7 +168,7 @@ const SPARSE_CAP: f64 = 6.0;
 
 /// How much a pair edge's reaches widen for `plane` where the scan's spacing is `spacing`
 /// (see [`SPARSE_RATIO`]): 1 for a face sampled about as densely.
-fn widening(plane: &crate::stages::faces::Plane, spacing: f64) -> f64 {
+fn widening(plane: &Plane, spacing: f64) -> f64 {
     let ratio = plane.spacing / spacing;
     if ratio >= SPARSE_RATIO {
         ratio.min(SPARSE_CAP)
@@ -722,7 +722,6 @@ fn reach_beyond(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::stages::faces::Plane;
     use crate::stages::features::Scale;
 
     /// Two half-planes meeting along the y axis at the interior angle `angle_deg`, each
