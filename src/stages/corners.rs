@@ -467,8 +467,22 @@ pub fn edge_geometry(
             });
             let (o, d) = e.line;
             let t_of = |p: [f64; 3]| dot(sub(p, o), d);
-            let first = e.slabs.first().map(|s| s.corner).unwrap_or(o);
-            let last = e.slabs.last().map(|s| s.corner).unwrap_or(o);
+            // An open end ends where both faces' points near the edge do: a run that turns
+            // onto a scan border at an unseen corner reaches past the corner.
+            let clip = |s: &crate::stages::edges::SlabFit, e: usize| {
+                let off = if e == 0 {
+                    s.support[0].max(0.0)
+                } else {
+                    s.support[1].min(0.0)
+                };
+                if off.is_finite() {
+                    add(s.corner, s.tangent.map(|x| x * off))
+                } else {
+                    s.corner
+                }
+            };
+            let first = e.slabs.first().map(|s| clip(s, 0)).unwrap_or(o);
+            let last = e.slabs.last().map(|s| clip(s, 1)).unwrap_or(o);
             let polyline = if e.straight {
                 let at = |t: f64| add(o, d.map(|x| x * t));
                 match ends {

@@ -124,6 +124,9 @@ pub struct SlabFit {
     pub reach: [f64; 2],
     /// Points in the slab's profile.
     pub points: usize,
+    /// Along `tangent`, from the slab's centre: where both faces' points near the edge begin
+    /// and end (see [`face_support`]).
+    pub support: [f64; 2],
 }
 
 /// The fitted edge of one run.
@@ -1625,6 +1628,7 @@ fn slab_pass(
                     abnormal_reach,
                     reach: side_reach(&profile, out),
                     points: profile.len(),
+                    support: face_support(&profile, &members, out, ctx.positions, c, tangent),
                 });
             }
             Err(e) => {
@@ -1761,6 +1765,44 @@ fn abnormal_points(
         .map(|&j| ((profile[j][0] - pso[0]).powi(2) + (profile[j][1] - pso[1]).powi(2)).sqrt())
         .fold(zone, f64::max);
     (abnormal, abnormal_reach)
+}
+
+/// Along the edge (`tangent`, from the slab's centre `c`), the stretch where both faces have
+/// points near the edge: the later of the sides' first and the earlier of their last
+/// along-edge offsets, over each side's nearer half (by distance along its face from the
+/// corner; a face whose angle at a corner is obtuse reaches past the corner farther out).
+fn face_support(
+    profile: &[[f64; 2]],
+    members: &[u32],
+    fit: &ProfileFit,
+    positions: &[[f64; 3]],
+    c: [f64; 3],
+    tangent: [f64; 3],
+) -> [f64; 2] {
+    let corner = fit.searches.pso.point;
+    let mut support = [f64::NEG_INFINITY, f64::INFINITY];
+    for j in 0..2 {
+        let d = fit.local[j].direction;
+        let mut side: Vec<(f64, f64)> = fit.sides[j]
+            .iter()
+            .map(|&i| {
+                let q = profile[i];
+                let along_face = (q[0] - corner[0]) * d[0] + (q[1] - corner[1]) * d[1];
+                let along_edge = dot(sub(positions[members[i] as usize], c), tangent);
+                (along_face, along_edge)
+            })
+            .collect();
+        if side.is_empty() {
+            continue;
+        }
+        let half = side.len().div_ceil(2);
+        side.select_nth_unstable_by(half - 1, |a, b| a.0.total_cmp(&b.0));
+        let near = &side[..half];
+        let lo = near.iter().map(|x| x.1).fold(f64::INFINITY, f64::min);
+        let hi = near.iter().map(|x| x.1).fold(f64::NEG_INFINITY, f64::max);
+        support = [support[0].max(lo), support[1].min(hi)];
+    }
+    support
 }
 
 /// How far each side's points of a fit reach from the PSO corner along their face trace:
@@ -2078,6 +2120,66 @@ mod tests {
         assert!(side_reach(&profile, &fit)[1] < 0.0);
         fit.sides[1].clear();
         assert_eq!(side_reach(&profile, &fit)[1], 0.0);
+    }
+
+    #[test]
+    fn issue17_face_support_is_where_both_faces_near_the_edge_have_points() {
+        // Seed 1's r084 of `bench --random 100`: a one-view scan's edge ran 2.9 h past a
+        // corner whose third face it did not see. An edge along z through the origin; side 0
+        // along +x, side 1 along +y, 8 points each at 1..=8 from the edge. Side 0's nearer
+        // half lies at z in [-5, 1], its farther half reaches z = 6 (a face whose angle at
+        // the corner is obtuse reaches past it away from the edge); side 1 at z in [-4, 1].
+        let mut positions = Vec::new();
+        for i in 1..=8 {
+            let z = if i <= 4 {
+                -5.0 + 2.0 * (i - 1) as f64
+            } else {
+                6.0
+            };
+            positions.push([i as f64, 0.0, z]);
+        }
+        for i in 1..=8 {
+            positions.push([0.0, i as f64, -4.0 + 5.0 * ((i - 1) % 2) as f64]);
+        }
+        let profile: Vec<[f64; 2]> = positions.iter().map(|p| [p[0], p[1]]).collect();
+        let members: Vec<u32> = (0..16).collect();
+        let mut fit = ProfileFit {
+            sides: [(0..8).collect(), (8..16).collect()],
+            ..ProfileFit::default()
+        };
+        fit.searches.pso.point = [0.0, 0.0];
+        fit.local[0].direction = [1.0, 0.0];
+        fit.local[1].direction = [0.0, 1.0];
+        let s = face_support(
+            &profile,
+            &members,
+            &fit,
+            &positions,
+            [0.0; 3],
+            [0.0, 0.0, 1.0],
+        );
+        assert_eq!(s, [-4.0, 1.0]);
+        // Along the other way, the same stretch mirrored.
+        let s = face_support(
+            &profile,
+            &members,
+            &fit,
+            &positions,
+            [0.0; 3],
+            [0.0, 0.0, -1.0],
+        );
+        assert_eq!(s, [-1.0, 4.0]);
+        // A side without points leaves the stretch to the other.
+        fit.sides[1].clear();
+        let s = face_support(
+            &profile,
+            &members,
+            &fit,
+            &positions,
+            [0.0; 3],
+            [0.0, 0.0, 1.0],
+        );
+        assert_eq!(s, [-5.0, 1.0]);
     }
 
     #[test]
