@@ -2150,36 +2150,22 @@ mod tests {
         fit.searches.pso.point = [0.0, 0.0];
         fit.local[0].direction = [1.0, 0.0];
         fit.local[1].direction = [0.0, 1.0];
-        let s = face_support(
-            &profile,
-            &members,
-            &fit,
-            &positions,
-            [0.0; 3],
-            [0.0, 0.0, 1.0],
-        );
-        assert_eq!(s, [-4.0, 1.0]);
+        let support = |fit: &ProfileFit, up: f64| {
+            face_support(
+                &profile,
+                &members,
+                fit,
+                &positions,
+                [0.0; 3],
+                [0.0, 0.0, up],
+            )
+        };
+        assert_eq!(support(&fit, 1.0), [-4.0, 1.0]);
         // Along the other way, the same stretch mirrored.
-        let s = face_support(
-            &profile,
-            &members,
-            &fit,
-            &positions,
-            [0.0; 3],
-            [0.0, 0.0, -1.0],
-        );
-        assert_eq!(s, [-1.0, 4.0]);
+        assert_eq!(support(&fit, -1.0), [-1.0, 4.0]);
         // A side without points leaves the stretch to the other.
         fit.sides[1].clear();
-        let s = face_support(
-            &profile,
-            &members,
-            &fit,
-            &positions,
-            [0.0; 3],
-            [0.0, 0.0, 1.0],
-        );
-        assert_eq!(s, [-5.0, 1.0]);
+        assert_eq!(support(&fit, 1.0), [-5.0, 1.0]);
     }
 
     #[test]

@@ -910,11 +910,7 @@ mod tests {
     /// on no face (their sampling cells read the dense side's scale); `sparse_spacing` is the
     /// second face's spacing as its plane records it.
     fn grazing_wedge(sparse_spacing: f64) -> Wedge {
-        let half = std::f64::consts::FRAC_PI_4;
-        let dirs = [
-            [half.cos(), 0.0, half.sin()],
-            [half.cos(), 0.0, -half.sin()],
-        ];
+        let dirs = right_dirs();
         let (mut positions, mut label, mut candidate) = (Vec::new(), Vec::new(), Vec::new());
         for (f, (step, width, unlabelled)) in [(1.0, 30.0, 2.0), (6.0, 60.0, 15.0)]
             .into_iter()
@@ -932,16 +928,46 @@ mod tests {
                 x += step;
             }
         }
+        right_wedge(
+            positions,
+            label,
+            candidate,
+            [10.0, 30.0],
+            [1.0, sparse_spacing],
+        )
+    }
+
+    /// Unit directions in the xz-plane away from a 90° edge along the y axis, along each face.
+    fn right_dirs() -> [[f64; 3]; 2] {
+        let half = std::f64::consts::FRAC_PI_4;
+        [
+            [half.cos(), 0.0, half.sin()],
+            [half.cos(), 0.0, -half.sin()],
+        ]
+    }
+
+    /// The wedge of `positions` on the faces of [`right_dirs`]: face k's plane through the
+    /// point `at[k]` along its direction, with spacing `spacing[k]`; spacing 1 and radius 4
+    /// for every point.
+    fn right_wedge(
+        positions: Vec<[f64; 3]>,
+        label: Vec<u32>,
+        candidate: Vec<bool>,
+        at: [f64; 2],
+        spacing: [f64; 2],
+    ) -> Wedge {
+        let half = std::f64::consts::FRAC_PI_4;
+        let dirs = right_dirs();
         let planes = vec![
             test_plane(
                 [-half.sin(), 0.0, half.cos()],
-                dirs[0].map(|x| x * 10.0),
-                1.0,
+                dirs[0].map(|x| x * at[0]),
+                spacing[0],
             ),
             test_plane(
                 [half.sin(), 0.0, half.cos()],
-                dirs[1].map(|x| x * 30.0),
-                sparse_spacing,
+                dirs[1].map(|x| x * at[1]),
+                spacing[1],
             ),
         ];
         let scale = Scale {
@@ -993,11 +1019,7 @@ mod tests {
         // face 1 up to y = 40, face 0 up to y = 40 + x (its angle at the corner is 135°, so
         // it reaches past the corner away from the edge); within 2 of the edge, candidates
         // on no face.
-        let half = std::f64::consts::FRAC_PI_4;
-        let dirs = [
-            [half.cos(), 0.0, half.sin()],
-            [half.cos(), 0.0, -half.sin()],
-        ];
+        let dirs = right_dirs();
         let (mut positions, mut label, mut candidate) = (Vec::new(), Vec::new(), Vec::new());
         for (f, dir) in dirs.iter().enumerate() {
             let mut x = 0.5;
@@ -1013,25 +1035,7 @@ mod tests {
                 x += 1.0;
             }
         }
-        let planes = vec![
-            test_plane(
-                [-half.sin(), 0.0, half.cos()],
-                dirs[0].map(|x| x * 10.0),
-                1.0,
-            ),
-            test_plane(
-                [half.sin(), 0.0, half.cos()],
-                dirs[1].map(|x| x * 10.0),
-                1.0,
-            ),
-        ];
-        let scale = Scale {
-            spacing: 1.0,
-            pitch: 1.0,
-            noise: 0.01,
-            radius: 4.0,
-        };
-        let w = Wedge::new(positions, label, candidate, planes, scale);
+        let w = right_wedge(positions, label, candidate, [10.0, 10.0], [1.0, 1.0]);
         let found = edges_of(&w);
         assert_eq!(found.len(), 1, "{found:?}");
         let e = &found[0];
