@@ -368,6 +368,7 @@ pub fn process(cloud: Cloud, settings: &Settings, clock: &mut impl LapClock) -> 
         &new_edges,
         &planar,
         next,
+        &settings.edges,
         &settings.rectify,
     );
     clock.lap("rectify");

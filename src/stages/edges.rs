@@ -1178,7 +1178,7 @@ fn next_centre(
 }
 
 /// Empty stretch (pitches) that ends an abnormal zone (see [`abnormal_zone`]).
-const ZONE_GAP: f64 = 2.0;
+pub(crate) const ZONE_GAP: f64 = 2.0;
 /// A bin belongs to the abnormal zone when its mean residual stands this many noise sigmas
 /// above the faces' level (as well as three standard errors). Measured on `--random 100
 /// --seed 1`: 0.5 halves the points moved beyond the true rounding (a 0.3 σ lean of pooled

@@ -3,7 +3,8 @@
 //!
 //! Inputs: positions, the `EdgeFit`s (their slabs' abnormal zones and face traces), the final
 //! `EdgeGeometry`, the fitted corners and their edges, the edges placed by planes with their
-//! `Faces`, `RectifyParams` (lengths in each edge's own scale). Outputs: the rectified
+//! `Faces`, the `EdgeParams` (the widest rounding of a sharp edge), `RectifyParams` (lengths
+//! in each edge's own scale). Outputs: the rectified
 //! positions (a copy of the input where nothing moved), a moved flag and an edge label per
 //! point.
 //!
@@ -13,15 +14,17 @@
 //! inherit one slab's noise. Points move out to the part of the edge's measured abnormal zone
 //! that a rounding accounts for (`EdgeFit::rounding`), plus a margin. Near a corner, where
 //! slabs stop, points as close to one of the corner's edges as that reach move onto the
-//! nearest face plane of the corner.
+//! nearest face plane of the corner (around a corner placed by planes, not the points of a
+//! planar face none of its edges borders: they stay where they were read).
 
 use crate::geometry::{add, cross, dot, norm, point_segment, sub};
 use crate::neighbours::Grid;
 use crate::stages::corners::{CornerFit, EdgeGeometry};
 use crate::stages::edges::{
-    EdgeFit, EdgeResult, HIDDEN_MAX, Surface, hidden_limit, hidden_zone, mean_faces,
+    EdgeFit, EdgeParams, EdgeResult, HIDDEN_MAX, Surface, ZONE_GAP, fillet_limit, hidden_limit,
+    hidden_zone, mean_faces,
 };
-use crate::stages::faces::Faces;
+use crate::stages::faces::{Faces, NO_FACE};
 use crate::stages::features::Scale;
 use crate::stages::plane_corners::FaceEdge;
 
@@ -208,6 +211,7 @@ const ZONE_OFF_SHARE: f64 = 0.5;
 /// already keep their place. Then, around the corners at their ends, candidates as close to
 /// one of the corner's plane edges as its zone reaches move onto the nearest of the corner's
 /// face planes, as around a fitted corner.
+#[allow(clippy::too_many_arguments)]
 pub fn rectify_plane_edges(
     out: &mut Rectified,
     surface: &Surface,
@@ -215,6 +219,7 @@ pub fn rectify_plane_edges(
     edges: &[FaceEdge],
     faces: &Faces,
     first_id: u32,
+    edge_params: &EdgeParams,
     params: &RectifyParams,
 ) {
     let (positions, grid) = (surface.positions, surface.grid);
@@ -257,7 +262,11 @@ pub fn rectify_plane_edges(
         // stretch that the face-pair walk found with an open end can run on past the true
         // edge, a few spacings off it (seed 1's r090, a grid view: 23 face points moved).
         let hidden = e.corners.iter().all(Option::is_some);
-        let Some(zone) = plane_edge_zone(&near, &sc, hidden.then_some(interior), params) else {
+        // A rounding of radius R between faces at the interior angle θ leaves them
+        // R / tan(θ/2) from the edge.
+        let lead = fillet_limit(edge_params, &sc) / (0.5 * interior.to_radians()).tan().max(0.05);
+        let zone = plane_edge_zone(&near, &sc, hidden.then_some(interior), lead, params);
+        let Some(zone) = zone else {
             continue;
         };
         zones[k] = Some(zone);
@@ -309,10 +318,18 @@ pub fn rectify_plane_edges(
             .iter()
             .filter_map(|&k| zones[k])
             .fold(0.0, f64::max);
+        let corner_faces: Vec<u32> = incident.iter().flat_map(|&k| edges[k].faces).collect();
         let max_move = params.max_move * widest;
         grid.for_each_near_segment(corner, corner, 1.5 * widest + reach, |i| {
             let iu = i as usize;
             if !candidate[iu] || out.moved[iu] {
+                return;
+            }
+            // A point of a face the corner's planes leave out is that face's, not the
+            // corner's: snapped onto the nearest of the others it moved 7–18 h (seed 1's
+            // r099, scan lines: a corner's third face whose edges had no zone).
+            let l = faces.label[iu];
+            if l != NO_FACE && !corner_faces.contains(&l) {
                 return;
             }
             let p = positions[iu];
@@ -330,8 +347,9 @@ pub fn rectify_plane_edges(
 }
 
 /// The abnormal zone of a plane edge, from its candidates `near` (id, distance along the
-/// faces, target, distance off the faces): out to the first bin where most lie on the faces,
-/// plus the margin of a fitted edge. Where none lies off them next to the edge, the noise
+/// faces, target, distance off the faces): out to the first bin where most lie on the faces
+/// (see [`zone_end`]; `lead` is how far from the edge the widest rounding of a sharp edge
+/// reaches), plus the margin of a fitted edge. Where none lies off them next to the edge, the noise
 /// may hide a rounding (between faces at the interior angle `interior_deg`, when given): the
 /// widest one no bin would show, as along a fitted edge (`edges::hidden_zone`, at most
 /// `edges::HIDDEN_MAX` pitches), plus the margin; `None` when that is none either.
@@ -339,6 +357,7 @@ fn plane_edge_zone(
     near: &[(u32, f64, [f64; 3], f64)],
     sc: &Scale,
     interior_deg: Option<f64>,
+    lead: f64,
     params: &RectifyParams,
 ) -> Option<f64> {
     let off_limit = OFF_FACE_SIGMAS * sc.noise + 0.05 * sc.pitch;
@@ -349,12 +368,11 @@ fn plane_edge_zone(
         count[b][0] += 1;
         count[b][1] += usize::from(x.3 > off_limit);
     }
-    let end = count
-        .iter()
-        .position(|c| (c[1] as f64) < ZONE_OFF_SHARE * c[0] as f64)?;
     let margin = params.zone_margin * sc.pitch + sc.noise;
-    if end > 0 {
-        return Some(end as f64 * ZONE_BIN * sc.pitch + margin);
+    match zone_end(&count, sc.pitch, lead) {
+        ZoneEnd::Open => return None,
+        ZoneEnd::At(end) if end > 0 => return Some(end as f64 * ZONE_BIN * sc.pitch + margin),
+        _ => {}
     }
     let interior_deg = interior_deg?;
     let limits: Vec<f64> = count
@@ -368,6 +386,52 @@ fn plane_edge_zone(
         HIDDEN_MAX * sc.pitch,
     );
     (hidden > 0.0).then_some(hidden + margin)
+}
+
+/// Where the bins of a plane edge's candidates (`count`: candidates, and those off the faces,
+/// per bin of `ZONE_BIN` pitches from the edge) end its zone.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum ZoneEnd {
+    /// At this bin: the first where most lie on the faces, or the first of an empty stretch
+    /// wider than `ZONE_GAP` pitches after bins mostly off them (the bins before it are the
+    /// zone).
+    At(usize),
+    /// No candidate shows a zone: none lies near enough to the edge for a rounding's.
+    Unseen,
+    /// Every bin is empty or mostly off the faces.
+    Open,
+}
+
+/// See [`ZoneEnd`]; `lead` is the farthest from the edge (along the faces) the widest
+/// rounding of a sharp edge reaches. The zone is contiguous from the edge, as a fitted
+/// edge's is (`edges::abnormal_zone`): it may begin past empty bins, where a rounding leaves
+/// no point near the edge, but not beyond `lead`, and it does not jump an empty stretch of
+/// more than `ZONE_GAP` pitches. A scan line running along the edge 50 h out that read a
+/// little off its face (its trace leaning by a fraction of a degree) made a 51 h zone on a
+/// scan-line view (`bench --random 100 --seed 1`'s r099, radius 61 h: face points 18–50 h
+/// from the edge moved).
+fn zone_end(count: &[[usize; 2]], pitch: f64, lead: f64) -> ZoneEnd {
+    let w = ZONE_BIN * pitch;
+    let gap = ZONE_GAP * pitch;
+    // Bins before `zone` are the zone so far.
+    let mut zone = 0usize;
+    for (b, c) in count.iter().enumerate() {
+        let from = b as f64 * w;
+        if zone == 0 && from > lead {
+            return ZoneEnd::Unseen;
+        }
+        if c[0] == 0 {
+            if zone > 0 && from + w > zone as f64 * w + gap {
+                return ZoneEnd::At(zone);
+            }
+            continue;
+        }
+        if (c[1] as f64) < ZONE_OFF_SHARE * c[0] as f64 {
+            return ZoneEnd::At(b);
+        }
+        zone = b + 1;
+    }
+    ZoneEnd::Open
 }
 
 /// Moves point `i` (at `p`) onto the nearest of a corner's face `planes` (a point on each,
@@ -460,7 +524,7 @@ pub fn onto_traces(p: [f64; 3], c: [f64; 3], d: [f64; 3], faces: &[[f64; 3]; 2])
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::stages::faces::NO_FACE;
+    use crate::stages::faces::Plane;
     use crate::stages::features::LocalScale;
 
     #[test]
@@ -486,31 +550,66 @@ mod tests {
         // On the faces everywhere: a hidden zone, wider in more noise, at most 1.5 pitches.
         let flat = near(&|_| 0.0);
         let (quiet, noisy) = (at(0.01), at(0.2));
-        let zq = plane_edge_zone(&flat, &quiet, Some(90.0), &params).unwrap();
-        let zn = plane_edge_zone(&flat, &noisy, Some(90.0), &params).unwrap();
+        let zq = plane_edge_zone(&flat, &quiet, Some(90.0), f64::INFINITY, &params).unwrap();
+        let zn = plane_edge_zone(&flat, &noisy, Some(90.0), f64::INFINITY, &params).unwrap();
         assert!(
             zq > margin(&quiet) && zq < zn - margin(&noisy) + margin(&quiet),
             "{zq} {zn}"
         );
         assert!(zn <= HIDDEN_MAX * 0.5 + margin(&noisy) + 1e-12, "{zn}");
         // Not asked for (an edge with an open end): no zone.
-        assert_eq!(plane_edge_zone(&flat, &noisy, None, &params), None);
+        assert_eq!(
+            plane_edge_zone(&flat, &noisy, None, f64::INFINITY, &params),
+            None
+        );
         // Off the faces out to 1.2 (the first bins): the zone that shows.
         let shown = near(&|s| if s < 1.2 { 1.0 } else { 0.0 });
-        let z = plane_edge_zone(&shown, &noisy, Some(90.0), &params).unwrap();
+        let z = plane_edge_zone(&shown, &noisy, Some(90.0), f64::INFINITY, &params).unwrap();
         assert!((z - (1.25 + margin(&noisy))).abs() < 1e-9, "{z}");
         // Off the faces only farther out: only the hidden zone.
         let later = near(&|s| if s > 2.0 { 1.0 } else { 0.0 });
-        let z = plane_edge_zone(&later, &noisy, Some(90.0), &params).unwrap();
+        let z = plane_edge_zone(&later, &noisy, Some(90.0), f64::INFINITY, &params).unwrap();
         assert!(z <= HIDDEN_MAX * 0.5 + margin(&noisy) + 1e-12, "{z}");
     }
 
     #[test]
-    fn issue17_a_point_behind_a_plane_edge_is_not_pulled_onto_it() {
-        // A 90° edge along z (faces along +x and +y), spacing 0.5: candidates on both faces
-        // from 0.5 out to 8, those within 1 of the edge lifted 0.3 off their face (the
-        // rounding: a zone of 1.5 and the margin), and
-        // one candidate behind the edge, 3 from it on another surface (a step below).
+    fn issue17_a_plane_edge_zone_begins_within_a_roundings_reach_and_jumps_no_wide_gap() {
+        // Bins of 0.25 (pitch 0.5, ZONE_GAP 1.0): [candidates, of them off the faces].
+        let (off, on, empty) = ([5, 5], [5, 0], [0, 0]);
+        let with = |parts: &[(&[usize; 2], usize)]| -> Vec<[usize; 2]> {
+            parts.iter().flat_map(|&(b, n)| vec![*b; n]).collect()
+        };
+        // An acute edge's rounding leaves no point near the edge: its zone begins past the
+        // empty bins...
+        let late = with(&[(&empty, 8), (&off, 2), (&on, 1)]);
+        assert_eq!(zone_end(&late, 0.5, 2.5), ZoneEnd::At(10));
+        // ...but not beyond the widest rounding's reach (a line along the edge far out).
+        assert_eq!(zone_end(&late, 0.5, 1.5), ZoneEnd::Unseen);
+        // Empty bins over up to ZONE_GAP pitches inside the zone are jumped, wider ones end it.
+        let jumped = with(&[(&off, 2), (&empty, 3), (&off, 1), (&on, 1)]);
+        assert_eq!(zone_end(&jumped, 0.5, 10.0), ZoneEnd::At(6));
+        let ended = with(&[(&off, 2), (&empty, 5), (&off, 1), (&on, 1)]);
+        assert_eq!(zone_end(&ended, 0.5, 10.0), ZoneEnd::At(2));
+        // On the faces next to the edge: no zone shows; off wherever judged: no end shows.
+        assert_eq!(
+            zone_end(&with(&[(&on, 1), (&off, 3)]), 0.5, 10.0),
+            ZoneEnd::At(0)
+        );
+        assert_eq!(
+            zone_end(&with(&[(&off, 2), (&empty, 1), (&off, 1)]), 0.5, 10.0),
+            ZoneEnd::Open
+        );
+    }
+
+    /// A 90° plane edge along z from 0 to 40 between face 0 (along +y, plane x = 0) and face
+    /// 1 (along +x, plane y = 0), spacing 0.5: candidates on both faces from 0.5 out to 8,
+    /// those within 1 of the edge lifted 0.3 off their face (the rounding: a zone of 1.5
+    /// and the margin), then `extra` points; every point a candidate of face `label`
+    /// (`NO_FACE` for the wedge's), rectified with planes x = 0, y = 0 and z = 0 (face 2).
+    fn rectify_wedge(
+        corners: [Option<usize>; 2],
+        extra: &[([f64; 3], u32)],
+    ) -> (Vec<[f64; 3]>, Rectified) {
         let sc = Scale {
             spacing: 0.5,
             pitch: 0.5,
@@ -527,8 +626,11 @@ mod tests {
                 positions.push([lift, s, z]);
             }
         }
-        let behind = positions.len();
-        positions.push([-2.1, -2.1, 20.0]);
+        let mut label = vec![NO_FACE; positions.len()];
+        for &(p, l) in extra {
+            positions.push(p);
+            label.push(l);
+        }
         let n = positions.len();
         let grid = Grid::new(&positions, 4.0).unwrap();
         let scale = LocalScale::uniform(n, sc);
@@ -540,7 +642,7 @@ mod tests {
             scale: &scale,
         };
         let edge = FaceEdge {
-            corners: [None, None],
+            corners,
             faces: [0, 1],
             start: [0.0, 0.0, 0.0],
             end: [0.0, 0.0, 40.0],
@@ -548,16 +650,28 @@ mod tests {
             traces: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
             scale: sc,
         };
+        let plane = |normal: [f64; 3], centroid: [f64; 3]| Plane {
+            normal,
+            centroid,
+            points: 100,
+            rms: 0.01,
+            spacing: 0.5,
+            pitch: 0.5,
+            noise: 0.01,
+        };
         let faces = Faces {
-            label: vec![NO_FACE; n],
-            planes: Vec::new(),
+            label,
+            planes: vec![
+                plane([1.0, 0.0, 0.0], [0.0, 4.0, 20.0]),
+                plane([0.0, 1.0, 0.0], [4.0, 0.0, 20.0]),
+                plane([0.0, 0.0, 1.0], [4.0, 4.0, 0.0]),
+            ],
         };
         let mut out = Rectified {
             positions: positions.clone(),
             moved: vec![false; n],
             label: vec![u32::MAX; n],
         };
-        let params = RectifyParams::default();
         rectify_plane_edges(
             &mut out,
             &surface,
@@ -565,8 +679,17 @@ mod tests {
             &[edge],
             &faces,
             0,
-            &params,
+            &EdgeParams::default(),
+            &RectifyParams::default(),
         );
+        (positions, out)
+    }
+
+    #[test]
+    fn issue17_a_point_behind_a_plane_edge_is_not_pulled_onto_it() {
+        // One candidate behind the edge, 3 from it on another surface (a step below).
+        let (positions, out) = rectify_wedge([None, None], &[([-2.1, -2.1, 20.0], NO_FACE)]);
+        let behind = positions.len() - 1;
         // The rounding moves onto the faces (away from the edge's ends)...
         let lifted = positions
             .iter()
@@ -579,6 +702,27 @@ mod tests {
         // ...but the point behind the edge stays where it was read.
         assert!(!out.moved[behind], "{:?}", out.positions[behind]);
         assert_eq!(out.positions[behind], positions[behind]);
+    }
+
+    #[test]
+    fn issue17_a_corner_moves_no_point_of_a_face_its_edges_leave_out() {
+        // The edge starts at a corner whose third face (z = 0, face 2) has no plane edge:
+        // its candidates within the edge's zone of the corner stay where they were read
+        // (onto the nearest of the edge's planes they would move by 0.5; seed 1's r099 of
+        // `bench --random 100`: 7–18 h), while the rounding there moves.
+        let third = [([0.5, 0.5, 0.0], 2), ([0.6, 0.4, 0.0], 2)];
+        let (positions, out) = rectify_wedge([Some(0), None], &third);
+        let n = positions.len();
+        for (i, p) in positions.iter().enumerate().skip(n - 2) {
+            assert!(!out.moved[i], "{p:?} -> {:?}", out.positions[i]);
+        }
+        let near_corner = positions[..n - 2]
+            .iter()
+            .enumerate()
+            .filter(|(_, p)| p[2] < 3.0 && p[0].min(p[1]) > 0.2);
+        for (i, p) in near_corner {
+            assert!(out.moved[i], "{p:?}");
+        }
     }
 
     #[test]
