@@ -296,10 +296,10 @@ pub fn rectify_plane_edges(
     at_corner.sort_unstable();
     for group in at_corner.chunk_by(|a, b| a.0 == b.0) {
         let incident: Vec<usize> = group.iter().map(|x| x.1).collect();
-        let planes: Vec<([f64; 3], [f64; 3])> = incident
+        let corner_faces: Vec<u32> = incident.iter().flat_map(|&k| edges[k].faces).collect();
+        let planes: Vec<([f64; 3], [f64; 3])> = corner_faces
             .iter()
-            .flat_map(|&k| edges[k].faces)
-            .map(|f| {
+            .map(|&f| {
                 let p = &faces.planes[f as usize];
                 (p.centroid, p.normal)
             })
@@ -318,7 +318,6 @@ pub fn rectify_plane_edges(
             .iter()
             .filter_map(|&k| zones[k])
             .fold(0.0, f64::max);
-        let corner_faces: Vec<u32> = incident.iter().flat_map(|&k| edges[k].faces).collect();
         let max_move = params.max_move * widest;
         grid.for_each_near_segment(corner, corner, 1.5 * widest + reach, |i| {
             let iu = i as usize;
