@@ -48,6 +48,7 @@ fn generator(c: &mut Criterion) {
                     abnormal: false,
                     outlier: false,
                     view: u32::MAX,
+                    noise: 0.0,
                 })
                 .collect();
             black_box((pos, truth))

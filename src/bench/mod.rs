@@ -1199,14 +1199,19 @@ pub fn away_limit(tangent_distance: f64, noise: f64, h: f64) -> f64 {
 /// The points away from every edge: neither abnormal nor outliers, and beyond each edge's own
 /// [`away_limit`] (near a vertex the nearest edge is not always the one whose zone reaches
 /// farthest: beside a 30° edge, a point 6 h out on its face is 4.5 h from the end face's
-/// edge). Distances are from the points' noise-free positions. `noise` in spacings.
+/// edge). Distances are from the points' noise-free positions. `noise` in spacings: the
+/// scan's; a point given more (`PointTruth::noise`: incidence noise on a face seen at a
+/// grazing angle, up to four times the scan's) is uncertain by its own. Issue 17: seed 3's
+/// r006 of `bench --random 100` (incidence noise) counted 222 points "away" that lay within
+/// five of their own sigmas of an edge's reach.
 pub fn away_mask(truth: &[PointTruth], gt: &GroundTruth, noise: f64, h: f64) -> Vec<bool> {
-    let limits: Vec<f64> = gt
+    let noise_of = |t: &PointTruth| noise.max(t.noise / h);
+    // `away_limit` grows with the tangent distance: the widest edge's is the widest limit.
+    let widest_td = gt
         .edges
         .iter()
-        .map(|e| away_limit(e.tangent_distance, noise, h))
-        .collect();
-    let widest = limits.iter().copied().fold(AWAY * h, f64::max);
+        .map(|e| e.tangent_distance)
+        .fold(0.0, f64::max);
     // A wide fillet is no edge, but its points and those near its tangent lines are not
     // "away" either: only beyond it.
     let fillet_faces: std::collections::HashSet<u32> = gt
@@ -1214,27 +1219,27 @@ pub fn away_mask(truth: &[PointTruth], gt: &GroundTruth, noise: f64, h: f64) -> 
         .iter()
         .flat_map(|f| f.faces.iter().map(|&c| c as u32))
         .collect();
-    let fillet_limit = away_limit(0.0, noise, h);
-    let near_fillet = |t: &PointTruth| {
+    let near_fillet = |t: &PointTruth, noise: f64| {
+        let limit = away_limit(0.0, noise, h);
         fillet_faces.contains(&t.face)
             || gt.fillets.iter().any(|f| {
                 f.tangent_lines
                     .iter()
-                    .any(|[a, b]| point_segment(t.surface, *a, *b).0 <= fillet_limit)
+                    .any(|[a, b]| point_segment(t.surface, *a, *b).0 <= limit)
             })
     };
     truth
         .par_iter()
         .map(|t| {
-            if t.abnormal || t.outlier || near_fillet(t) {
+            let noise = noise_of(t);
+            if t.abnormal || t.outlier || near_fillet(t, noise) {
                 return false;
             }
-            t.edge_distance > widest
-                || gt
-                    .edges
-                    .iter()
-                    .zip(&limits)
-                    .all(|(e, &l)| point_segment(t.surface, e.start, e.end).0 > l)
+            t.edge_distance > away_limit(widest_td, noise, h)
+                || gt.edges.iter().all(|e| {
+                    point_segment(t.surface, e.start, e.end).0
+                        > away_limit(e.tangent_distance, noise, h)
+                })
         })
         .collect()
 }

@@ -296,6 +296,7 @@ fn truth_at(edge_distance: f64, abnormal: bool, outlier: bool) -> PointTruth {
         abnormal,
         outlier,
         view: u32::MAX,
+        noise: 0.0,
     }
 }
 
@@ -542,6 +543,7 @@ fn away_mask_takes_every_edge_into_account_near_vertices() {
             abnormal: false,
             outlier: false,
             view: u32::MAX,
+            noise: 0.0,
         }
     };
     let near_vertex = at(4.8 * h, 6.0 * h);
@@ -553,6 +555,15 @@ fn away_mask_takes_every_edge_into_account_near_vertices() {
     assert!(near_vertex.edge_distance > away_limit(nearest.tangent_distance, 0.15, h));
     // …but it lies within the 30° edge's zone (5.6 h) plus margin.
     let mask = away_mask(&[near_vertex, far], gt, 0.15, h);
+    assert_eq!(mask, vec![false, true]);
+    // Issue 17: a point given four times the scan's noise (incidence noise on a face seen at
+    // a grazing angle) is uncertain by its own sigma: 9 h out on the face it lies within the
+    // 30° edge's 5.6 h plus 2 h plus five of its 0.6 h sigmas, and is not away; 12 h out it is.
+    let grazing = |out: f64| PointTruth {
+        noise: 0.6 * h,
+        ..at(100.0 * h, out)
+    };
+    let mask = away_mask(&[grazing(9.0 * h), grazing(12.0 * h)], gt, 0.15, h);
     assert_eq!(mask, vec![false, true]);
 }
 

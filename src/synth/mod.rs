@@ -186,6 +186,12 @@ pub struct PointTruth {
     /// The view (sensor, `GroundTruth::sensors`) that saw it; `u32::MAX` for patterns
     /// without views (uniform, lines), which cover the whole surface.
     pub view: u32,
+    /// The noise sigma this sample was given (model units; 0 for an outlier): the scan's,
+    /// with the edge band's added inside it and grown as 1 / cos of the incidence angle
+    /// under incidence noise (a face seen at grazing incidence gets up to `incidence_cap`
+    /// times the scan's). Along the sensor's ray for sensor patterns, in every direction
+    /// otherwise.
+    pub noise: f64,
 }
 
 /// A simulated scan: the cloud, per-point truth (same order) and the part's ground truth.
@@ -662,6 +668,7 @@ fn run_source<S: sample::Source>(
             abnormal: false,
             outlier: false,
             view: u32::MAX,
+            noise: 0.0,
         };
         total
     ];
@@ -1057,6 +1064,7 @@ fn scan_sphere(p: &SynthParams) -> Result<Scan> {
             abnormal: false,
             outlier: false,
             view: u32::MAX,
+            noise: 0.0,
         };
         n
     ];

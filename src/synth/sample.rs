@@ -91,7 +91,8 @@ impl Settings {
     /// on the rounded part, `normal` the normal of its triangle, `view` the view it came from
     /// (`u32::MAX`: none). The noise sigma grows with the incidence angle when the scanner
     /// says so, and lies along the sensor's ray for depth sensors; a view's misregistration
-    /// moves the point last. Returns the world position and whether it became an outlier.
+    /// moves the point last. Returns the world position, whether it became an outlier and the
+    /// sigma its noise was drawn with (0 for an outlier).
     #[inline]
     fn finish(
         &self,
@@ -100,7 +101,7 @@ impl Settings {
         in_band: bool,
         normal: V3,
         view: u32,
-    ) -> (V3, bool) {
+    ) -> (V3, bool, f64) {
         let mut sigma = if in_band {
             (self.noise_sigma * self.noise_sigma + self.edge_sigma * self.edge_sigma).sqrt()
         } else {
@@ -122,7 +123,7 @@ impl Settings {
             let u: [f64; 3] = [rng.random(), rng.random(), rng.random()];
             let q = [0, 1, 2]
                 .map(|k| self.outlier_lo[k] + u[k] * (self.outlier_hi[k] - self.outlier_lo[k]));
-            return (q, true);
+            return (q, true, 0.0);
         }
         if let Some(m) = self
             .scanner
@@ -132,7 +133,7 @@ impl Settings {
         {
             p = m.apply(p);
         }
-        (self.world(p), false)
+        (self.world(p), false, sigma)
     }
 }
 
@@ -557,7 +558,7 @@ fn finish_sample(
     }
     let moved = pick.and_then(|(_, e, k)| round(model, fil, e, k, p));
     let in_band = s.edge_sigma > 0.0 && nearest.0 < s.band;
-    let (world, outlier) = s.finish(rng, moved.unwrap_or(p), in_band, n, view);
+    let (world, outlier, noise) = s.finish(rng, moved.unwrap_or(p), in_band, n, view);
     let truth = PointTruth {
         surface: s.world(p),
         edge_distance: nearest.0,
@@ -566,6 +567,7 @@ fn finish_sample(
         abnormal: !outlier && (moved.is_some() || in_band),
         outlier,
         view,
+        noise,
     };
     (world, truth)
 }
@@ -634,7 +636,7 @@ pub fn fill_sphere(radius: f64, s: &Settings, positions: &mut [V3], truth: &mut 
                     scale(north, s.jitter * s.h * (jv - 0.5)),
                 );
                 let p = scale(unit(add(scale(dir, radius), jit)).unwrap_or(dir), radius);
-                let (world, outlier) = s.finish(&mut rng, p, false, dir, u32::MAX);
+                let (world, outlier, noise) = s.finish(&mut rng, p, false, dir, u32::MAX);
                 *po = world;
                 *t = PointTruth {
                     surface: s.world(p),
@@ -644,6 +646,7 @@ pub fn fill_sphere(radius: f64, s: &Settings, positions: &mut [V3], truth: &mut 
                     abnormal: false,
                     outlier,
                     view: u32::MAX,
+                    noise,
                 };
             }
         });
