@@ -19,6 +19,25 @@ pub struct LocalPca {
     pub centroid: [f64; 3],
 }
 
+/// A neighbourhood whose spread across its principal direction (middle eigenvalue) is below
+/// this share of its spread along it (largest) lies on one scan line: see
+/// [`LocalPca::spans_one_line`].
+pub const ONE_LINE: f64 = 0.01;
+
+impl LocalPca {
+    /// The neighbourhood lies on one scan line: its points spread across their principal
+    /// direction by less than [`ONE_LINE`] of their spread along it, so its plane is the
+    /// noise's (the normal turns about the line at random) and it measures neither the
+    /// surface's orientation nor the spacing across the lines. A second line holding a share
+    /// a of the points g away spreads them a(1−a)·g² across, against about L²/3 along a
+    /// stretch ±L long: two lines split about evenly pass from g ≈ 0.12 L, and a second line
+    /// within a ball's radius fails the test only where it holds a few thousandths of the
+    /// points (grazing the ball's rim).
+    pub fn spans_one_line(&self) -> bool {
+        self.eigenvalues[1] < ONE_LINE * self.eigenvalues[2]
+    }
+}
+
 /// Adds an offset to the raw moments [n, Σx, Σy, Σz, Σxx, Σxy, Σxz, Σyy, Σyz, Σzz].
 #[inline]
 pub fn add_moments(m: &mut [f64; 10], d: [f64; 3]) {

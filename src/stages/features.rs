@@ -18,7 +18,9 @@
 //!   spacing for a 150° dihedral edge.
 //!
 //! A point is a candidate when either score stands out: thresholds are fixed statements about
-//! noise statistics and angles (relative to the cloud's own median), not per-scan tuning.
+//! noise statistics and angles (relative to the cloud's own median), not per-scan tuning. A
+//! point whose neighbourhood holds one scan line and nothing else (`LocalPca::spans_one_line`)
+//! is none: its normal is the noise's, and so are both scores.
 
 use rayon::prelude::*;
 
@@ -223,15 +225,17 @@ pub fn features(
     let mut sharpness = vec![0.0f32; n];
     let mut variation = vec![0.0f32; n];
     let mut count = vec![0u32; n];
+    let mut one_line = vec![false; n];
     split_by(&mut normal, &lens)
         .into_iter()
         .zip(split_by(&mut sharpness, &lens))
         .zip(split_by(&mut variation, &lens))
         .zip(split_by(&mut count, &lens))
+        .zip(split_by(&mut one_line, &lens))
         .zip(&chunks)
         .collect::<Vec<_>>()
         .into_par_iter()
-        .for_each(|((((nrm, sh), va), co), chunk)| {
+        .for_each(|(((((nrm, sh), va), co), ol), chunk)| {
             for (k, (block, i)) in slots_of(grid, chunk).enumerate() {
                 let q = positions[i as usize];
                 let r = scale.at(i as usize).radius;
@@ -245,7 +249,7 @@ pub fn features(
                         add_moments_weighted(&mut m, d, c.weight[k as usize])
                     }),
                 }
-                (nrm[k], sh[k], va[k], co[k]) = match pca_from_moments(&m) {
+                (nrm[k], sh[k], va[k], co[k], ol[k]) = match pca_from_moments(&m) {
                     Some(p) => {
                         let sum = p.eigenvalues.iter().sum::<f64>();
                         let v = if sum > 0.0 {
@@ -259,9 +263,10 @@ pub fn features(
                             (p.eigenvalues[0] / var) as f32,
                             v as f32,
                             c,
+                            p.spans_one_line(),
                         )
                     }
-                    None => ([0.0; 3], 0.0, 0.0, 1),
+                    None => ([0.0; 3], 0.0, 0.0, 1, false),
                 };
             }
             let done = nrm.len() as u64;
@@ -310,6 +315,7 @@ pub fn features(
     let sharpness = slots_to_ids(sharpness, ids);
     let variation = slots_to_ids(variation, ids);
     let count = slots_to_ids(count, ids);
+    let one_line = slots_to_ids(one_line, ids);
     let split = slots_to_ids(split, ids);
     let direction = slots_to_ids(direction, ids);
     let corner = slots_to_ids(corner, ids);
@@ -327,8 +333,23 @@ pub fn features(
          median count {median_count}, outlier below {min_count}"
     );
     let outlier: Vec<bool> = count.iter().map(|&c| c < min_count).collect();
+    // A neighbourhood on one scan line (`LocalPca::spans_one_line`) has the noise's normal:
+    // its split and sharpness say nothing of an edge. Issue 17: where the scale stage sizes
+    // the radius of a face seen by sparse lines after the faces around it (`stages::scale`,
+    // `Sample::one_line`), the points of a line farther than a radius from any other (a lone
+    // line across a narrow face, the middle of a wall leaning towards the cutting planes)
+    // were candidates, and a fit through them gave a 484 h edge across a flat face of seed 107's r057 of
+    // `bench --random 100` (edge precision 1.0 -> 0.867; 0.980 with this rule).
+    let lone = one_line.iter().filter(|&&l| l).count();
+    if lone > 0 {
+        tracing::debug!("features: {lone} points see one scan line within their radius");
+    }
     let candidate: Vec<bool> = (0..n)
-        .map(|i| !outlier[i] && (split[i] > split_threshold || sharpness[i] > plane_threshold))
+        .map(|i| {
+            !outlier[i]
+                && !one_line[i]
+                && (split[i] > split_threshold || sharpness[i] > plane_threshold)
+        })
         .collect();
     Features {
         normal,
@@ -413,6 +434,16 @@ mod tests {
     use super::*;
     use crate::testdata::dihedral;
 
+    /// A scan's scale at a pitch and spacing of 1.
+    fn unit_scale(noise: f64, radius: f64) -> Scale {
+        Scale {
+            spacing: 1.0,
+            pitch: 1.0,
+            noise,
+            radius,
+        }
+    }
+
     fn measured(pts: &[[f64; 3]], params: &FeatureParams) -> (LocalScale, Scale) {
         let s = crate::neighbours::mean_spacing(pts, 50_000).unwrap();
         let local = crate::stages::scale::local_scale(pts, s, &params.scale_rules()).unwrap();
@@ -476,15 +507,7 @@ mod tests {
     #[test]
     fn normals_of_a_plane_are_its_normal() {
         let (pts, dist) = dihedral(90.0, 1.0, 0.0, 20.0, 9);
-        let scale = LocalScale::uniform(
-            pts.len(),
-            Scale {
-                spacing: 1.0,
-                pitch: 1.0,
-                noise: 0.0,
-                radius: 4.0,
-            },
-        );
+        let scale = LocalScale::uniform(pts.len(), unit_scale(0.0, 4.0));
         let grid = Grid::new(&pts, 4.0).unwrap();
         let f = features(
             &pts,
@@ -517,6 +540,57 @@ mod tests {
     }
 
     #[test]
+    fn issue17_a_scan_line_alone_within_the_radius_is_no_candidate() {
+        // A plane scanned in lines along x, 0.1 apart along them, 2.5 apart up to y = 72.5,
+        // and two lone lines farther than the radius from any other (a face leaning towards
+        // the cutting planes, whose scale stage sized its radius after the faces around).
+        // Noise 0.02 across the lines and out of the plane: a lone line's plane is the noise's.
+        // A lone line holds a third of the points a neighbourhood of the others does: no
+        // outlier.
+        use rand::rngs::SmallRng;
+        use rand::{RngExt, SeedableRng};
+        let mut rng = SmallRng::seed_from_u64(17);
+        let mut pts = Vec::new();
+        let ys: Vec<f64> = (0..30)
+            .map(|k| 2.5 * f64::from(k))
+            .chain([90.0, 110.0])
+            .collect();
+        for &y in &ys {
+            for k in 0..500 {
+                let mut e = || 0.02 * (rng.random::<f64>() - 0.5) * 12f64.sqrt();
+                pts.push([0.1 * f64::from(k), y + e(), e()]);
+            }
+        }
+        let scale = unit_scale(0.02, 5.0);
+        let local = LocalScale::uniform(pts.len(), scale);
+        let grid = Grid::new(&pts, scale.radius).unwrap();
+        let params = FeatureParams::default();
+        let f = features(&pts, &grid, &local, &params, &Progress::hidden());
+        // Their ends hold half a neighbourhood: outliers.
+        let lone: Vec<usize> = (0..pts.len())
+            .filter(|&i| pts[i][1] > 80.0 && (6.0..44.0).contains(&pts[i][0]))
+            .collect();
+        assert!(lone.iter().all(|&i| !f.outlier[i]));
+        // Without the rule most of them are candidates: their normals turn at random about
+        // the line, and the split between them is large.
+        let wild = lone
+            .iter()
+            .filter(|&&i| f.split[i] > f.split_threshold)
+            .count();
+        assert!(wild * 2 > lone.len(), "{wild} of {} split", lone.len());
+        let flagged: Vec<usize> = lone.iter().copied().filter(|&i| f.candidate[i]).collect();
+        assert!(flagged.is_empty(), "{} lone-line candidates", flagged.len());
+        // Away from the patch's rim the lines 1.0 apart are a plane like any other.
+        let inner = (0..pts.len())
+            .filter(|&i| (10.0..62.0).contains(&pts[i][1]) && (10.0..40.0).contains(&pts[i][0]));
+        assert!(inner.clone().count() > 5000);
+        for i in inner {
+            assert!(!f.candidate[i], "point {i} at {:?}", pts[i]);
+            assert!(f.normal[i][2].abs() > 0.99, "{:?}", f.normal[i]);
+        }
+    }
+
+    #[test]
     fn slots_to_ids_puts_each_slot_value_at_its_id() {
         let ids: Vec<u32> = vec![3, 0, 4, 1, 2];
         let v = vec![30, 0, 40, 10, 20];
@@ -534,12 +608,7 @@ mod tests {
         // The passes work in the grid's slot order and hand the arrays out by id: check a
         // spread of points against a brute-force plane fit of their own neighbours.
         let (pts, _) = dihedral(120.0, 1.0, 0.15, 12.0, 9);
-        let scale = Scale {
-            spacing: 1.0,
-            pitch: 1.0,
-            noise: 0.15,
-            radius: 3.0,
-        };
+        let scale = unit_scale(0.15, 3.0);
         let local = LocalScale::uniform(pts.len(), scale);
         // Cells narrower than the radius: the wider query path too.
         for cell in [3.0, 1.3] {

@@ -35,8 +35,10 @@
 //!   percent of the points: the k-nearest queries would otherwise dominate the run) and
 //!   smoothed over the cells around it (three wide) by the median of the samples that lie on faces
 //!   (`on_faces`): a neighbourhood straddling an edge reads the bend as noise and its two
-//!   faces as a denser sampling. Each point takes its cell's values: they depend on the
-//!   surface around it, not on what else was read.
+//!   faces as a denser sampling. A sample whose neighbours all lie on one scan line (lines
+//!   farther apart than they reach, on a face leaning towards the cutting planes) measures
+//!   no surface and counts only where no sample around does (`Sample::one_line`). Each point takes
+//!   its cell's values: they depend on the surface around it, not on what else was read.
 //! - The **radius** is max(`min_radius` spacings, `noise_radius` sigmas, `normal_radius`
 //!   √(sigma·spacing) up to `noise_radius` spacings): the first two as the cloud-wide rule
 //!   was, the third keeping the
@@ -313,7 +315,10 @@ pub fn local_scale_in(
                 .into(),
         });
     }
-    // Smoothing: the samples within SMOOTH_CELLS cells of each sample.
+    // Smoothing: the samples within SMOOTH_CELLS cells of each sample. Where all of them lie
+    // on one scan line each (`Sample::one_line`) and some sample of the cloud measures a
+    // surface, the cloud's values stand in, as for a sample with no measurement around it.
+    let any_surface = raw.iter().flatten().any(|s| !s.one_line);
     let sample_pos: Vec<[f64; 3]> = samples.iter().map(|&i| positions[i as usize]).collect();
     let reach = SMOOTH_CELLS * SAMPLE_CELL * spacing;
     let sample_grid = Grid::new(&sample_pos, reach)?;
@@ -324,6 +329,9 @@ pub fn local_scale_in(
             sample_grid.for_each_within(sample_pos[s], reach, |j, _, _| {
                 around.extend(raw[j as usize]);
             });
+            if any_surface && around.iter().all(|a| a.one_line) {
+                around.clear();
+            }
             on_faces(&mut around)
         })
         .collect();
@@ -397,6 +405,17 @@ struct Sample {
     var: f64,
     /// Surface variation λ0 / (λ0 + λ1 + λ2): noise alone on a face, more across an edge.
     variation: f64,
+    /// Its neighbours lie on one scan line ([`LocalPca::spans_one_line`](crate::geometry::moments::LocalPca::spans_one_line)): its plane is the
+    /// noise's, its sectors the noise's across the line, and it measures neither the spacing
+    /// nor the noise. Where the samples around measure a surface, it takes theirs
+    /// ([`on_faces`]). Why: where scan lines cross a face that leans towards their cutting
+    /// planes they lie farther apart than K neighbours reach along one (issue 17, seed 1's
+    /// r039 of `bench --random 100`: lines 37 h apart on a face, the neighbours reaching 24 h
+    /// either way along their line). That face measured a 2.4 h spacing and a 9.5 h radius;
+    /// every neighbourhood there held one line, and its normals were noise. Two lines g apart
+    /// among K neighbours a pitch p apart along them spread g²/4 across against (K p / 2)²/12
+    /// along: they pass from g ≈ 1.4 p, closer than any scan's lines.
+    one_line: bool,
 }
 
 /// Samples whose surface variation exceeds this many times the lower quartile of those
@@ -423,8 +442,12 @@ impl OnFaces {
 /// denser sampling; near a sharp wedge's apex most neighbourhoods do (on a 30° wedge, within
 /// nine spacings of it), and the quartile stays on the faces while a quarter of the samples
 /// around does. At high noise every sample's variation is the noise's and none is left out,
-/// and none needs to be. NaNs without samples.
+/// and none needs to be. Samples on one scan line ([`Sample::one_line`]) count only where no sample
+/// around measures a surface. NaNs without samples.
 fn on_faces(around: &mut Vec<Sample>) -> OnFaces {
+    if around.iter().any(|s| !s.one_line) {
+        around.retain(|s| !s.one_line);
+    }
     let mut variation: Vec<f64> = around.iter().map(|s| s.variation).collect();
     let limit = ON_FACE * quantile(&mut variation, 0.25);
     around.retain(|s| s.variation <= limit);
@@ -459,6 +482,7 @@ fn measure(positions: &[[f64; 3]], tree: &KdTree, i: usize) -> Option<Sample> {
         add_moments(&mut m, d);
     }
     let pca = pca_from_moments(&m)?;
+    let one_line = pca.spans_one_line();
     let n = f64::from(pca.count);
     let var = pca.eigenvalues[0] * n / (n - 3.0);
     let (u, v) = perp_basis(&pca.normal);
@@ -480,6 +504,7 @@ fn measure(positions: &[[f64; 3]], tree: &KdTree, i: usize) -> Option<Sample> {
         } else {
             0.0
         },
+        one_line,
     })
 }
 
@@ -683,6 +708,38 @@ mod tests {
             "radius {radius}, spacing {spacing}"
         );
         assert!((radius - 2.26).abs() < 0.1, "radius {radius} gaps");
+    }
+
+    #[test]
+    fn issue17_scan_lines_farther_apart_than_the_neighbours_reach_take_the_spacing_around() {
+        // A plane in lines along x, 0.1 apart along them: 1.0 apart up to y = 30, then 8.0
+        // apart (a face that leans towards the cutting planes). K neighbours reach 2.4 along
+        // a line: there each sample sees its own line only, and read its spacing from the
+        // noise across it (here none: the step along it).
+        let mut pts = Vec::new();
+        let mut y = 0.0;
+        while y < 150.0 {
+            for k in 0..600 {
+                // A little noise across the line and out of the plane, fixed by the point.
+                let e = |a: u32| ((f64::from(k * 7919 + a) * 0.618_034).fract() - 0.5) * 0.01;
+                pts.push([0.1 * f64::from(k), y + e(1), e(2)]);
+            }
+            y += if y < 30.0 { 1.0 } else { 8.0 };
+        }
+        let s = mean_spacing(&pts, 50_000).unwrap();
+        let local = local_scale(&pts, s, &ScaleRules::default()).unwrap();
+        let tree = KdTree::new(&pts).unwrap();
+        for (i, p) in pts.iter().enumerate().step_by(37) {
+            let sc = local.at(i);
+            if p[1] >= 60.0 {
+                assert!(measure(&pts, &tree, i).is_some_and(|m| m.one_line));
+                // The spacing the lines 1.0 apart measured, not the step along a line.
+                let h = sc.spacing * SECTOR_RATIO;
+                assert!((0.9..1.2).contains(&h), "y {}: spacing {h}", p[1]);
+            } else if p[1] <= 25.0 {
+                assert!(measure(&pts, &tree, i).is_some_and(|m| !m.one_line));
+            }
+        }
     }
 
     #[test]
