@@ -37,8 +37,8 @@
 //!   (`on_faces`): a neighbourhood straddling an edge reads the bend as noise and its two
 //!   faces as a denser sampling. A sample whose neighbours all lie on one scan line (lines
 //!   farther apart than they reach, on a face leaning towards the cutting planes) measures
-//!   no surface and counts only where no sample around does (`Sample::one_line`). Each point takes
-//!   its cell's values: they depend on the surface around it, not on what else was read.
+//!   no surface and counts only where no sample around does (`Sample::one_line`). Each point
+//!   takes its cell's values: they depend on the surface around it, not on what else was read.
 //! - The **radius** is max(`min_radius` spacings, `noise_radius` sigmas, `normal_radius`
 //!   √(sigma·spacing) up to `noise_radius` spacings): the first two as the cloud-wide rule
 //!   was, the third keeping the
@@ -405,7 +405,7 @@ struct Sample {
     var: f64,
     /// Surface variation λ0 / (λ0 + λ1 + λ2): noise alone on a face, more across an edge.
     variation: f64,
-    /// Its neighbours lie on one scan line ([`LocalPca::spans_one_line`](crate::geometry::moments::LocalPca::spans_one_line)): its plane is the
+    /// Its neighbours lie on one scan line ([`LocalPca::spans_one_line`]): its plane is the
     /// noise's, its sectors the noise's across the line, and it measures neither the spacing
     /// nor the noise. Where the samples around measure a surface, it takes theirs
     /// ([`on_faces`]). Why: where scan lines cross a face that leans towards their cutting
@@ -415,6 +415,8 @@ struct Sample {
     /// every neighbourhood there held one line, and its normals were noise. Two lines g apart
     /// among K neighbours a pitch p apart along them spread g²/4 across against (K p / 2)²/12
     /// along: they pass from g ≈ 1.4 p, closer than any scan's lines.
+    ///
+    /// [`LocalPca::spans_one_line`]: crate::geometry::moments::LocalPca::spans_one_line
     one_line: bool,
 }
 
@@ -442,8 +444,8 @@ impl OnFaces {
 /// denser sampling; near a sharp wedge's apex most neighbourhoods do (on a 30° wedge, within
 /// nine spacings of it), and the quartile stays on the faces while a quarter of the samples
 /// around does. At high noise every sample's variation is the noise's and none is left out,
-/// and none needs to be. Samples on one scan line ([`Sample::one_line`]) count only where no sample
-/// around measures a surface. NaNs without samples.
+/// and none needs to be. Samples on one scan line ([`Sample::one_line`]) count only where no
+/// sample around measures a surface. NaNs without samples.
 fn on_faces(around: &mut Vec<Sample>) -> OnFaces {
     if around.iter().any(|s| !s.one_line) {
         around.retain(|s| !s.one_line);
@@ -714,8 +716,8 @@ mod tests {
     fn issue17_scan_lines_farther_apart_than_the_neighbours_reach_take_the_spacing_around() {
         // A plane in lines along x, 0.1 apart along them: 1.0 apart up to y = 30, then 8.0
         // apart (a face that leans towards the cutting planes). K neighbours reach 2.4 along
-        // a line: there each sample sees its own line only, and read its spacing from the
-        // noise across it (here none: the step along it).
+        // a line: there each sample sees its own line only, and its sectors would read the
+        // noise across the line (0.01 here) as the spacing.
         let mut pts = Vec::new();
         let mut y = 0.0;
         while y < 150.0 {
