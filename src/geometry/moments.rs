@@ -32,7 +32,10 @@ impl LocalPca {
     /// a of the points g away spreads them a(1−a)·g² across, against about L²/3 along a
     /// stretch ±L long: two lines split about evenly pass from g ≈ 0.12 L, and a second line
     /// within a ball's radius fails the test only where it holds a few thousandths of the
-    /// points (grazing the ball's rim).
+    /// points (grazing the ball's rim). The line's own noise spreads it too: a lone line
+    /// with noise σ across it is flagged only where it reaches L > √300·σ ≈ 17σ along, so
+    /// on a scan whose radius is set by its noise (`noise_radius` = 6 sigmas) lone lines
+    /// are not recognised and stay as they were.
     pub fn spans_one_line(&self) -> bool {
         self.eigenvalues[1] < ONE_LINE * self.eigenvalues[2]
     }
@@ -130,6 +133,34 @@ mod tests {
         let brute: f64 = x.iter().map(|v| (v - mean) * (v - mean)).sum();
         assert!((spread_along(&m, a) - brute).abs() < 1e-12 * brute.max(1.0));
         assert_eq!(spread_along(&[0.0; 10], a), 0.0);
+    }
+
+    #[test]
+    fn one_line_means_no_second_line_within_0_116_of_the_reach() {
+        // Two lines g apart, each 201 points evenly along ±L (L = 10): the middle eigenvalue
+        // is g²/4, the largest 33.67 (L²/3 and the discrete steps'): the test flips at
+        // g = √(0.04 · 33.67) ≈ 1.16, 0.116 L.
+        let two_lines = |g: f64| {
+            let mut m = [0.0; 10];
+            for k in -100..=100 {
+                let x = f64::from(k) * 0.1;
+                add_moments(&mut m, [x, -g / 2.0, 0.0]);
+                add_moments(&mut m, [x, g / 2.0, 0.0]);
+            }
+            pca_from_moments(&m).unwrap()
+        };
+        assert!(two_lines(0.0).spans_one_line());
+        assert!(two_lines(1.10).spans_one_line());
+        assert!(!two_lines(1.25).spans_one_line());
+        assert!(!two_lines(3.0).spans_one_line());
+        // A uniform patch (a grid of 21 x 21) is a surface, not a line.
+        let mut m = [0.0; 10];
+        for i in -10..=10 {
+            for j in -10..=10 {
+                add_moments(&mut m, [f64::from(i), f64::from(j), 0.0]);
+            }
+        }
+        assert!(!pca_from_moments(&m).unwrap().spans_one_line());
     }
 
     #[test]

@@ -338,8 +338,8 @@ pub fn features(
     // the radius of a face seen by sparse lines after the faces around it (`stages::scale`,
     // `Sample::one_line`), the points of a line farther than a radius from any other (a lone
     // line across a narrow face, the middle of a wall leaning towards the cutting planes)
-    // were candidates, and a fit through them gave a 484 h edge across a flat face of seed 107's r057 of
-    // `bench --random 100` (edge precision 1.0 -> 0.867; 0.980 with this rule).
+    // were candidates, and a fit through them gave a 484 h edge across a flat face of seed
+    // 107's r057 of `bench --random 100` (edge precision 1.0 -> 0.867; 0.980 with this rule).
     let lone = one_line.iter().filter(|&&l| l).count();
     if lone > 0 {
         tracing::debug!("features: {lone} points see one scan line within their radius");
@@ -566,7 +566,8 @@ mod tests {
         let grid = Grid::new(&pts, scale.radius).unwrap();
         let params = FeatureParams::default();
         let f = features(&pts, &grid, &local, &params, &Progress::hidden());
-        // Their ends hold half a neighbourhood: outliers.
+        // Near their ends a neighbourhood holds about half a line, and some of those points
+        // are outliers: left out here.
         let lone: Vec<usize> = (0..pts.len())
             .filter(|&i| pts[i][1] > 80.0 && (6.0..44.0).contains(&pts[i][0]))
             .collect();
@@ -580,7 +581,7 @@ mod tests {
         assert!(wild * 2 > lone.len(), "{wild} of {} split", lone.len());
         let flagged: Vec<usize> = lone.iter().copied().filter(|&i| f.candidate[i]).collect();
         assert!(flagged.is_empty(), "{} lone-line candidates", flagged.len());
-        // Away from the patch's rim the lines 1.0 apart are a plane like any other.
+        // Away from the patch's rim the lines 2.5 apart are a plane like any other.
         let inner = (0..pts.len())
             .filter(|&i| (10.0..62.0).contains(&pts[i][1]) && (10.0..40.0).contains(&pts[i][0]));
         assert!(inner.clone().count() > 5000);
