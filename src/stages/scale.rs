@@ -37,8 +37,9 @@
 //!   (`on_faces`): a neighbourhood straddling an edge reads the bend as noise and its two
 //!   faces as a denser sampling. A sample whose neighbours all lie on one scan line (lines
 //!   farther apart than they reach, on a face leaning towards the cutting planes) measures
-//!   no surface and counts only where no sample around does (`Sample::one_line`). Each point
-//!   takes its cell's values: they depend on the surface around it, not on what else was read.
+//!   no surface and counts only where no sample of the cloud does (`Sample::one_line`). Each
+//!   point takes its cell's values: they depend on the surface around it, not on what else
+//!   was read.
 //! - The **radius** is max(`min_radius` spacings, `noise_radius` sigmas, `normal_radius`
 //!   √(sigma·spacing) up to `noise_radius` spacings): the first two as the cloud-wide rule
 //!   was, the third keeping the
@@ -303,7 +304,7 @@ pub fn local_scale_in(
         .iter()
         .map(|b| cells.slot_ids(b.slots.clone())[0])
         .collect();
-    let raw: Vec<Option<Sample>> = samples
+    let mut raw: Vec<Option<Sample>> = samples
         .par_iter()
         .map(|&i| measure(positions, tree, i as usize))
         .collect();
@@ -315,10 +316,17 @@ pub fn local_scale_in(
                 .into(),
         });
     }
-    // Smoothing: the samples within SMOOTH_CELLS cells of each sample. Where all of them lie
-    // on one scan line each (`Sample::one_line`) and some sample of the cloud measures a
-    // surface, the cloud's values stand in, as for a sample with no measurement around it.
-    let any_surface = raw.iter().flatten().any(|s| !s.one_line);
+    // A sample on one scan line (`Sample::one_line`) measures nothing where some sample of
+    // the cloud measures a surface: it is dropped, so that a cell with only such samples
+    // around takes the cloud's values, as one with no measurement around it does.
+    if raw.iter().flatten().any(|s| !s.one_line) {
+        for s in &mut raw {
+            if s.is_some_and(|s| s.one_line) {
+                *s = None;
+            }
+        }
+    }
+    // Smoothing: the samples within SMOOTH_CELLS cells of each sample.
     let sample_pos: Vec<[f64; 3]> = samples.iter().map(|&i| positions[i as usize]).collect();
     let reach = SMOOTH_CELLS * SAMPLE_CELL * spacing;
     let sample_grid = Grid::new(&sample_pos, reach)?;
@@ -329,9 +337,6 @@ pub fn local_scale_in(
             sample_grid.for_each_within(sample_pos[s], reach, |j, _, _| {
                 around.extend(raw[j as usize]);
             });
-            if any_surface && around.iter().all(|a| a.one_line) {
-                around.clear();
-            }
             on_faces(&mut around)
         })
         .collect();
@@ -407,14 +412,15 @@ struct Sample {
     variation: f64,
     /// Its neighbours lie on one scan line ([`LocalPca::spans_one_line`]): its plane is the
     /// noise's, its sectors the noise's across the line, and it measures neither the spacing
-    /// nor the noise. Where the samples around measure a surface, it takes theirs
-    /// ([`on_faces`]). Why: where scan lines cross a face that leans towards their cutting
-    /// planes they lie farther apart than K neighbours reach along one (issue 17, seed 1's
-    /// r039 of `bench --random 100`: lines 37 h apart on a face, the neighbours reaching 24 h
-    /// either way along their line). That face measured a 2.4 h spacing and a 9.5 h radius;
-    /// every neighbourhood there held one line, and its normals were noise. Two lines g apart
-    /// among K neighbours a pitch p apart along them spread g²/4 across against (K p / 2)²/12
-    /// along: they pass from g ≈ 1.4 p, closer than any scan's lines.
+    /// nor the noise. Where any sample of the cloud measures a surface it is dropped before
+    /// smoothing, and its cell takes the values of the samples around or the cloud's. Why:
+    /// where scan lines cross a face that leans towards their cutting planes they lie farther
+    /// apart than K neighbours reach along one (issue 17, seed 1's r039 of `bench --random
+    /// 100`: lines 37 h apart on a face, the neighbours reaching 24 h either way along their
+    /// line). That face measured a 2.4 h spacing and a 9.5 h radius; every neighbourhood
+    /// there held one line, and its normals were noise. Two lines g apart among K neighbours
+    /// a pitch p apart along them spread g²/4 across against (K p / 2)²/12 along: they pass
+    /// from g ≈ 1.4 p, closer than any scan's lines.
     ///
     /// [`LocalPca::spans_one_line`]: crate::geometry::moments::LocalPca::spans_one_line
     one_line: bool,
@@ -444,12 +450,8 @@ impl OnFaces {
 /// denser sampling; near a sharp wedge's apex most neighbourhoods do (on a 30° wedge, within
 /// nine spacings of it), and the quartile stays on the faces while a quarter of the samples
 /// around does. At high noise every sample's variation is the noise's and none is left out,
-/// and none needs to be. Samples on one scan line ([`Sample::one_line`]) count only where no
-/// sample around measures a surface. NaNs without samples.
+/// and none needs to be. NaNs without samples.
 fn on_faces(around: &mut Vec<Sample>) -> OnFaces {
-    if around.iter().any(|s| !s.one_line) {
-        around.retain(|s| !s.one_line);
-    }
     let mut variation: Vec<f64> = around.iter().map(|s| s.variation).collect();
     let limit = ON_FACE * quantile(&mut variation, 0.25);
     around.retain(|s| s.variation <= limit);
